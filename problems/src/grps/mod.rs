@@ -1,0 +1,3 @@
+//! Generalized relative pose and scale (GRPS).
+pub mod geometry;
+pub mod scene;

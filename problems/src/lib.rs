@@ -1,0 +1,7 @@
+//! Built-in simhc problems: the paper's generalized absolute pose (UPnP) and generalized
+//! relative pose and scale (GRPS), each with its `#[simhc_problem]` declaration, scene sampler
+//! and geometric online simulator; plus the pose error metrics of the paper.
+
+pub mod grps;
+pub mod metrics;
+pub mod upnp;

@@ -1,0 +1,3 @@
+//! Generalized absolute pose via UPnP.
+pub mod geometry;
+pub mod scene;

@@ -1,0 +1,24 @@
+//! simhc runtime: the traits that `#[simhc_problem]` implements, the online simulator
+//! interface and the homotopy continuation tracker that runs on generated code.
+//!
+//! The pieces, one concern per module:
+//! - [`scalar`]: the number type generated code is generic over (`f64`, `Complex<f64>`);
+//! - [`problem`]: the traits of a compiled polynomial system `F(x; p)`;
+//! - [`simulator`]: online simulators, including the generic minimum-norm one.
+
+pub mod homotopy;
+pub mod problem;
+pub mod scalar;
+pub mod simulator;
+pub mod tracker;
+
+pub use problem::{ParamDerivative, Problem, ProblemInfo};
+pub use scalar::Scalar;
+pub use simhc_macros::simhc_problem;
+pub use simulator::{MinNormSimulator, OnlineSimulator, SimulatorError};
+
+/// Re-exports used by generated code, so user crates need no direct dependency on them.
+#[doc(hidden)]
+pub mod __private {
+    pub use nalgebra;
+}

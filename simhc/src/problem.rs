@@ -1,0 +1,54 @@
+//! Traits of a compiled polynomial system `F(x; p) = 0`.
+//!
+//! `#[simhc_problem]` implements [`Problem`] and [`ParamDerivative`] for each instantiated row
+//! count with straight-line code; hand-written systems (tests, experiments) implement them too.
+//! Sizes are const generics so every buffer is a fixed-size nalgebra type on the stack:
+//! `NX` unknowns, `NF` equations (`NF >= NX`), `NP` parameters.
+
+use crate::Scalar;
+use nalgebra::{SMatrix, SVector};
+
+/// Static description of a problem instance.
+pub trait ProblemInfo {
+    /// Human-readable name, e.g. `"grps8"`.
+    const NAME: &'static str;
+    /// Names of the unknown scalars in vector order, e.g. `["q[0]", ..., "s"]`.
+    const UNKNOWN_NAMES: &'static [&'static str];
+    /// Names of the parameters in vector order, e.g. `["row0.f[0]", ...]`.
+    const PARAM_NAMES: &'static [&'static str];
+}
+
+/// Residual and Jacobian of `F(x; p)` with respect to the unknowns `x`.
+pub trait Problem<const NX: usize, const NF: usize, const NP: usize>: ProblemInfo {
+    /// `F(x; p)`.
+    fn residual<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, f: &mut SVector<S, NF>);
+    /// `dF/dx (x; p)`.
+    fn jacobian<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, j: &mut SMatrix<S, NF, NX>);
+    /// Both at once, sharing common subexpressions.
+    fn residual_jacobian<S: Scalar>(
+        x: &SVector<S, NX>,
+        p: &SVector<S, NP>,
+        f: &mut SVector<S, NF>,
+        j: &mut SMatrix<S, NF, NX>,
+    );
+}
+
+/// Derivatives of `F(x; p)` with respect to the parameters `p`, for parameter homotopies
+/// (`dH/dt = dF/dp * (p1 - p0)`) and for the generic minimum-norm simulator.
+pub trait ParamDerivative<const NX: usize, const NF: usize, const NP: usize>:
+    Problem<NX, NF, NP>
+{
+    /// `dF/dp (x; p)`, dense.
+    fn param_jacobian<S: Scalar>(
+        x: &SVector<S, NX>,
+        p: &SVector<S, NP>,
+        jp: &mut SMatrix<S, NF, NP>,
+    );
+    /// `dF/dp (x; p) * dp` without forming the matrix.
+    fn param_directional<S: Scalar>(
+        x: &SVector<S, NX>,
+        p: &SVector<S, NP>,
+        dp: &SVector<S, NP>,
+        out: &mut SVector<S, NF>,
+    );
+}

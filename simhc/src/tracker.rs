@@ -1,0 +1,1 @@
+//! Path tracker (filled in by the tracker work).

@@ -1,0 +1,244 @@
+//! Hash-consed expression DAG: the straight-line form of a set of polynomials.
+//!
+//! Every node is interned, so an identical subexpression is built once (common-subexpression
+//! elimination by construction). Polynomials are not emitted term by term: their terms are
+//! grouped by the monomial in the *unknowns*, and each group's coefficient (a polynomial in the
+//! parameters) is normalised to a leading coefficient of one before it is interned. That way
+//! the coefficient of `q1` in `dF/dq0` (which is `2 c(p)` when `F` holds `c(p) q0^2 q1`) reuses
+//! the node `c(p)` of the residual, and monomials in the unknowns are shared through a prefix
+//! tree (`q0^2 q1 = (q0 * q0) * q1`).
+
+use crate::lower::VarTable;
+use crate::poly::{Monomial, Poly, Var};
+use std::collections::{BTreeMap, HashMap};
+
+/// Index of a node; children always have smaller indices than their parents.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct NodeId(pub u32);
+
+/// One operation.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// Unknown `x[i]`.
+    X(u32),
+    /// Parameter `p[i]`.
+    P(u32),
+    /// Parameter direction `dp[i]` (for `dF/dp * dp`).
+    Dp(u32),
+    /// A real constant (bit pattern, so nodes hash).
+    Const(u64),
+    /// Sum.
+    Add(NodeId, NodeId),
+    /// Difference.
+    Sub(NodeId, NodeId),
+    /// Product.
+    Mul(NodeId, NodeId),
+    /// Negation.
+    Neg(NodeId),
+}
+
+/// The DAG under construction.
+#[derive(Default)]
+pub struct Dag {
+    /// Nodes in topological order.
+    pub nodes: Vec<Node>,
+    interned: HashMap<Node, NodeId>,
+    monomials: HashMap<Monomial, NodeId>,
+    coefficients: HashMap<Vec<(Monomial, u64)>, NodeId>,
+}
+
+impl Dag {
+    fn intern(&mut self, node: Node) -> NodeId {
+        // Commutative operations are stored with ordered operands so `a*b` and `b*a` coincide.
+        let node = match node {
+            Node::Add(a, b) if b < a => Node::Add(b, a),
+            Node::Mul(a, b) if b < a => Node::Mul(b, a),
+            n => n,
+        };
+        if let Some(&id) = self.interned.get(&node) {
+            return id;
+        }
+        let id = NodeId(self.nodes.len() as u32);
+        self.nodes.push(node.clone());
+        self.interned.insert(node, id);
+        id
+    }
+
+    /// A constant node.
+    pub fn constant(&mut self, c: f64) -> NodeId {
+        // -0.0 and 0.0 are the same constant.
+        let c = if c == 0.0 { 0.0 } else { c };
+        self.intern(Node::Const(c.to_bits()))
+    }
+
+    /// The constant value of a node, if it is one.
+    pub fn const_value(&self, id: NodeId) -> Option<f64> {
+        match self.nodes[id.0 as usize] {
+            Node::Const(bits) => Some(f64::from_bits(bits)),
+            _ => None,
+        }
+    }
+
+    fn var(&mut self, v: Var, vars: &VarTable) -> NodeId {
+        if vars.is_unknown(v) {
+            self.intern(Node::X(v))
+        } else {
+            self.intern(Node::P(v - vars.nx() as u32))
+        }
+    }
+
+    /// Product with constant folding of `1` and `-1`.
+    pub fn mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.const_value(a), self.const_value(b)) {
+            (Some(x), Some(y)) => self.constant(x * y),
+            (Some(c), _) if c == 1.0 => b,
+            (_, Some(c)) if c == 1.0 => a,
+            (Some(c), _) if c == -1.0 => self.intern(Node::Neg(b)),
+            (_, Some(c)) if c == -1.0 => self.intern(Node::Neg(a)),
+            _ => self.intern(Node::Mul(a, b)),
+        }
+    }
+
+    /// `c * a`.
+    fn scaled(&mut self, c: f64, a: NodeId) -> NodeId {
+        let k = self.constant(c);
+        self.mul(k, a)
+    }
+
+    /// Node of a monomial (`None` for the monomial 1), shared through its prefixes.
+    fn monomial(&mut self, m: &Monomial, vars: &VarTable) -> Option<NodeId> {
+        if m.0.is_empty() {
+            return None;
+        }
+        if let Some(&id) = self.monomials.get(m) {
+            return Some(id);
+        }
+        // Peel one factor of the last variable: m = rest * v.
+        let &(v, _) = m.0.last()?;
+        let rest = m.diff(v).map(|(_, r)| r).unwrap_or_default();
+        let vn = self.var(v, vars);
+        let id = match self.monomial(&rest, vars) {
+            None => vn,
+            Some(r) => self.mul(r, vn),
+        };
+        self.monomials.insert(m.clone(), id);
+        Some(id)
+    }
+
+    /// Signed sum of `(coefficient, node)` terms in the given order, using `-` for negative
+    /// coefficients so that no `-1 *` products appear.
+    fn signed_sum(&mut self, terms: Vec<(f64, Option<NodeId>)>) -> NodeId {
+        let mut acc: Option<NodeId> = None;
+        let mut constant = 0.0;
+        for (c, node) in terms {
+            let Some(n) = node else {
+                constant += c;
+                continue;
+            };
+            let mag = self.scaled(c.abs(), n);
+            acc = Some(match acc {
+                None if c < 0.0 => self.intern(Node::Neg(mag)),
+                None => mag,
+                Some(a) if c < 0.0 => self.intern(Node::Sub(a, mag)),
+                Some(a) => self.intern(Node::Add(a, mag)),
+            });
+        }
+        match acc {
+            None => self.constant(constant),
+            Some(a) if constant == 0.0 => a,
+            Some(a) if constant < 0.0 => {
+                let k = self.constant(-constant);
+                self.intern(Node::Sub(a, k))
+            }
+            Some(a) => {
+                let k = self.constant(constant);
+                self.intern(Node::Add(a, k))
+            }
+        }
+    }
+
+    /// Node of a polynomial in the parameters only, normalised so its first coefficient is 1;
+    /// returns `(leading coefficient, node)`.
+    fn coefficient(&mut self, p: &Poly, vars: &VarTable) -> (f64, NodeId) {
+        let lead = p.terms.values().next().copied().unwrap_or(1.0);
+        let key: Vec<(Monomial, u64)> =
+            p.terms.iter().map(|(m, &c)| (m.clone(), (c / lead).to_bits())).collect();
+        if let Some(&id) = self.coefficients.get(&key) {
+            return (lead, id);
+        }
+        let terms: Vec<(f64, Option<NodeId>)> =
+            p.terms.iter().map(|(m, &c)| (c / lead, self.monomial(m, vars))).collect();
+        let id = self.signed_sum(terms);
+        self.coefficients.insert(key, id);
+        (lead, id)
+    }
+
+    /// Builds a polynomial in unknowns and parameters, grouped by monomials in the unknowns.
+    pub fn polynomial(&mut self, poly: &Poly, vars: &VarTable) -> NodeId {
+        let mut groups: BTreeMap<Monomial, Poly> = BTreeMap::new();
+        for (m, &c) in &poly.terms {
+            let (xm, pm) = m.split(|v| vars.is_unknown(v));
+            groups.entry(xm).or_default().add_term(pm, c);
+        }
+        let mut terms = Vec::with_capacity(groups.len());
+        for (xm, coef) in &groups {
+            let xnode = self.monomial(xm, vars);
+            match coef.as_constant() {
+                Some(c) => terms.push((c, xnode)),
+                None => {
+                    let (lead, cnode) = self.coefficient(coef, vars);
+                    let node = match xnode {
+                        None => cnode,
+                        Some(x) => self.mul(cnode, x),
+                    };
+                    terms.push((lead, Some(node)));
+                }
+            }
+        }
+        self.signed_sum(terms)
+    }
+
+    /// Marks the nodes needed for `outputs`.
+    pub fn reachable(&self, outputs: &[NodeId]) -> Vec<bool> {
+        let mut live = vec![false; self.nodes.len()];
+        let mut stack: Vec<NodeId> = outputs.to_vec();
+        while let Some(id) = stack.pop() {
+            let i = id.0 as usize;
+            if live[i] {
+                continue;
+            }
+            live[i] = true;
+            match self.nodes[i] {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => stack.extend([a, b]),
+                Node::Neg(a) => stack.push(a),
+                _ => {}
+            }
+        }
+        live
+    }
+
+    /// The direction leaf `dp[i]`.
+    pub fn direction(&mut self, i: u32) -> NodeId {
+        self.intern(Node::Dp(i))
+    }
+
+    /// Sum of two nodes, folding zeros.
+    pub fn add(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.const_value(a), self.const_value(b)) {
+            (Some(x), Some(y)) => self.constant(x + y),
+            (Some(z), _) if z == 0.0 => b,
+            (_, Some(z)) if z == 0.0 => a,
+            _ => self.intern(Node::Add(a, b)),
+        }
+    }
+
+    /// Number of arithmetic operations needed for `outputs` (a cost figure for docs and tests).
+    pub fn op_count(&self, outputs: &[NodeId]) -> usize {
+        let live = self.reachable(outputs);
+        self.nodes
+            .iter()
+            .zip(&live)
+            .filter(|(n, &l)| l && matches!(n, Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Neg(..)))
+            .count()
+    }
+}

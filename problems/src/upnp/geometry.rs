@@ -183,18 +183,35 @@ pub fn upnp_system(corrs: &[UpnpCorrespondence]) -> Result<UpnpSystem, UpnpError
     let mut h = Matrix3::<f64>::zeros();
     let mut l = SMatrix::<f64, 3, 11>::zeros();
     for c in corrs {
-        let v = projector(&c.f);
-        h += v;
-        l += v * c_matrix(c);
+        let f = c.f / c.f.norm();
+        let cm = c_matrix(c);
+        h -= f * f.transpose();
+        l += cm - f * (f.transpose() * cm);
     }
+    h += Matrix3::identity() * corrs.len() as f64;
     let h_inv = inverse_checked(&h)?;
     let t = h_inv * l;
+    // M = sum A_i^T A_i with A_i = V_i (C_i - T) = D - f (f^T D); upper triangle accumulated
+    // row by row, then mirrored (exactly symmetric).
     let mut m = SMatrix::<f64, 11, 11>::zeros();
     for c in corrs {
-        let a = projector(&c.f) * (c_matrix(c) - t);
-        m += a.tr_mul(&a);
+        let f = c.f / c.f.norm();
+        let d = c_matrix(c) - t;
+        let a = d - f * (f.transpose() * d);
+        for r in 0..3 {
+            for k in 0..11 {
+                let ark = a[(r, k)];
+                for j in k..11 {
+                    m[(k, j)] += ark * a[(r, j)];
+                }
+            }
+        }
     }
-    let m = (m + m.transpose()) * 0.5;
+    for k in 0..11 {
+        for j in 0..k {
+            m[(k, j)] = m[(j, k)];
+        }
+    }
     Ok(UpnpSystem { m, t_map: -t })
 }
 

@@ -39,15 +39,15 @@ fn configs() -> Vec<GrpsSceneConfig> {
 
 /// Scale of the terms of the constraint, for relative tolerances.
 fn term_scale(t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> f64 {
-    1.0 + t.norm() + s * c.v2.norm() + c.v1.norm()
+    1.0 + t.norm() + s * c.vp.norm() + c.v.norm()
 }
 
 /// Same as the paper's constraint, written independently with explicit skew matrices.
 fn constraint_skew(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> f64 {
     let skew = |v: &Vector3<f64>| Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0);
-    let rf2 = r * c.f2;
-    t.dot(&c.f1.cross(&rf2)) - s * (c.f1.transpose() * r * skew(&c.v2) * c.f2)[0]
-        + (c.f1.transpose() * skew(&c.v1) * rf2)[0]
+    let rf2 = r * c.fp;
+    t.dot(&c.f.cross(&rf2)) - s * (c.f.transpose() * r * skew(&c.vp) * c.fp)[0]
+        + (c.f.transpose() * skew(&c.v) * rf2)[0]
 }
 
 #[test]
@@ -73,16 +73,16 @@ fn noise_free_scenes_satisfy_the_model() {
                 // alpha f + v = R (alpha' f' + s v') + t with positive depths.
                 let (a, a2) = triangulate_depths(&r, &t, s, c).unwrap();
                 assert!(a > 0.0 && a2 > 0.0, "seed {seed}: depths {a} {a2}");
-                let gap = c.f1 * a + c.v1 - (r * (c.f2 * a2 + c.v2 * s) + t);
+                let gap = c.f * a + c.v - (r * (c.fp * a2 + c.vp * s) + t);
                 assert!(
                     gap.norm() <= 1e-10 * (1.0 + a + a2),
                     "seed {seed}: gap {gap}"
                 );
                 // Offsets in [-1, 1]³ of each view; round robin over cameras in both views.
-                assert!(c.v1.amax() <= 1.0 && c.v2.amax() <= 1.0);
+                assert!(c.v.amax() <= 1.0 && c.vp.amax() <= 1.0);
                 let first = &scene.correspondences[i % cfg.cameras_per_view];
-                assert_eq!((c.v1, c.v2), (first.v1, first.v2));
-                assert!((c.f1.norm() - 1.0).abs() < 1e-15 && (c.f2.norm() - 1.0).abs() < 1e-15);
+                assert_eq!((c.v, c.vp), (first.v, first.vp));
+                assert!((c.f.norm() - 1.0).abs() < 1e-15 && (c.fp.norm() - 1.0).abs() < 1e-15);
             }
             assert_eq!(validate(&scene.correspondences), Ok(()));
         }
@@ -101,8 +101,8 @@ fn ground_truth_maps_view2_into_view1() {
         for c in &scene.correspondences {
             let (a, a2) = triangulate_depths(&r, &t, s, c).unwrap();
             // Point in view 2's own units and in view 1.
-            let y2 = c.f2 * (a2 / s) + c.v2;
-            let y1 = c.f1 * a + c.v1;
+            let y2 = c.fp * (a2 / s) + c.vp;
+            let y1 = c.f * a + c.v;
             assert!((r * (y2 * s) + t - y1).norm() <= 1e-9 * (1.0 + y1.norm()));
         }
         // A wrong scale or translation breaks the constraint (the model is not trivially satisfied).
@@ -154,12 +154,12 @@ fn geometric_simulator_is_exact_for_perturbed_poses() {
                 let rel = res.abs() / term_scale(&t, s, c);
                 worst = worst.max(rel);
                 assert!(rel <= 1e-12, "seed {seed}: residual {res:e}");
-                assert_eq!((c.v1, c.f2, c.v2), (orig.v1, orig.f2, orig.v2));
-                assert!((c.f1.norm() - 1.0).abs() <= 1e-15);
+                assert_eq!((c.v, c.fp, c.vp), (orig.v, orig.fp, orig.vp));
+                assert!((c.f.norm() - 1.0).abs() <= 1e-15);
                 assert!(!info.parallel);
                 // The flip keeps the simulated ray on the side of the measured one.
                 assert_eq!(info.behind_first, info.alpha < 0.0);
-                assert!(c.f1.dot(&orig.f1) >= 0.0);
+                assert!(c.f.dot(&orig.f) >= 0.0);
                 flipped += info.behind_first as usize;
                 behind2 += info.behind_second as usize;
                 total += 1;
@@ -191,7 +191,7 @@ fn simulator_at_the_truth_returns_the_measurements() {
             .zip(&scene.correspondences)
             .zip(&sim.info)
         {
-            assert!((a.f1 - b.f1).norm() <= 1e-9, "{} vs {}", a.f1, b.f1);
+            assert!((a.f - b.f).norm() <= 1e-9, "{} vs {}", a.f, b.f);
             assert!(!info.behind_first && !info.behind_second && !info.parallel);
         }
         let proj = project_first_view(
@@ -202,7 +202,7 @@ fn simulator_at_the_truth_returns_the_measurements() {
         )
         .unwrap();
         for (a, b) in proj.iter().zip(&scene.correspondences) {
-            assert!((a.f1 - b.f1).norm() <= 1e-9);
+            assert!((a.f - b.f).norm() <= 1e-9);
         }
     }
 }
@@ -225,8 +225,8 @@ fn minimal_angle_simulator_is_exact_and_closest() {
         assert_eq!(buf.len(), geo.len());
         for ((p, g), orig) in proj.iter().zip(&geo).zip(&scene.correspondences) {
             assert!(grps_residual_direct(&r, &t, s, p).abs() <= 1e-12 * term_scale(&t, s, p));
-            let angle = |a: &Vector3<f64>| a.cross(&orig.f1).norm().atan2(a.dot(&orig.f1));
-            assert!(angle(&p.f1) <= angle(&g.f1) + 1e-12);
+            let angle = |a: &Vector3<f64>| a.cross(&orig.f).norm().atan2(a.dot(&orig.f));
+            assert!(angle(&p.f) <= angle(&g.f) + 1e-12);
         }
     }
 }
@@ -250,12 +250,12 @@ fn degenerate_camera_configurations() {
     let scene = GrpsSceneConfig::default().sample_seeded(seed).unwrap();
     let (r, t, s) = (scene.rotation, scene.translation, scene.scale);
     let mut central1 = scene.correspondences.clone();
-    let v0 = central1[0].v1;
+    let v0 = central1[0].v;
     for c in &mut central1 {
         // Re-centre every view-1 ray on v0 while keeping the same 3D point.
         let (a, _) = triangulate_depths(&r, &t, s, c).unwrap();
-        c.f1 = (c.f1 * a + c.v1 - v0).normalize();
-        c.v1 = v0;
+        c.f = (c.f * a + c.v - v0).normalize();
+        c.v = v0;
     }
     assert_eq!(validate(&central1), Err(GrpsError::CentralView { view: 1 }));
     for l in [0.5, 2.0, 7.0] {
@@ -269,11 +269,11 @@ fn degenerate_camera_configurations() {
         }
     }
     let mut central2 = scene.correspondences.clone();
-    let w0 = central2[0].v2;
+    let w0 = central2[0].vp;
     for c in &mut central2 {
         let (_, a2) = triangulate_depths(&r, &t, s, c).unwrap();
-        c.f2 = (c.f2 * (a2 / s) + c.v2 - w0).normalize();
-        c.v2 = w0;
+        c.fp = (c.fp * (a2 / s) + c.vp - w0).normalize();
+        c.vp = w0;
     }
     assert_eq!(validate(&central2), Err(GrpsError::CentralView { view: 2 }));
     for s2 in [0.3, 1.0, 4.0] {
@@ -303,21 +303,21 @@ fn bad_input_gives_typed_errors() {
     );
     assert_eq!(validate(&good[..7]), Ok(()));
     let mut bad = good.clone();
-    bad[3].v2.x = f64::NAN;
+    bad[3].vp.x = f64::NAN;
     assert_eq!(validate(&bad), Err(GrpsError::NonFinite { index: 3 }));
     assert_eq!(
         simulate_first_view(&r, &t, s, &bad).unwrap_err(),
         GrpsError::NonFinite { index: 3 }
     );
     let mut bad = good.clone();
-    bad[6].f2 = Vector3::zeros();
+    bad[6].fp = Vector3::zeros();
     assert_eq!(validate(&bad), Err(GrpsError::ZeroBearing { index: 6 }));
     assert_eq!(
         project_first_view(&r, &t, s, &bad).unwrap_err(),
         GrpsError::ZeroBearing { index: 6 }
     );
     let mut bad = good.clone();
-    bad[1].f1 = Vector3::new(1e-13, 0.0, 0.0);
+    bad[1].f = Vector3::new(1e-13, 0.0, 0.0);
     assert_eq!(validate(&bad), Err(GrpsError::ZeroBearing { index: 1 }));
     let nan = GrpsError::NonFinite { index: usize::MAX };
     assert_eq!(
@@ -355,7 +355,7 @@ fn parallel_rays_fall_back_to_projection() {
     let (r, t, s) = (scene.rotation, scene.translation, scene.scale);
     let mut corrs = scene.correspondences.clone();
     // Make f exactly parallel to R f'.
-    corrs[0].f1 = r * corrs[0].f2;
+    corrs[0].f = r * corrs[0].fp;
     let sim = simulate_first_view(&r, &t, s, &corrs).unwrap();
     assert!(sim.info[0].parallel && sim.info[0].alpha.is_nan());
     assert!(!sim.info[1].parallel);
@@ -388,8 +388,8 @@ fn sampler_is_seeded_and_noise_is_bounded() {
     let bound = (cfg.noise_px / cfg.focal_px).atan() * (1.0 + 1e-9);
     let angle = |x: &Vector3<f64>, y: &Vector3<f64>| x.cross(y).norm().atan2(x.dot(y));
     for (n, c) in a.correspondences.iter().zip(&clean.correspondences) {
-        assert_eq!((n.v1, n.v2), (c.v1, c.v2));
-        assert!(angle(&n.f1, &c.f1) <= bound && angle(&n.f2, &c.f2) <= bound);
-        assert!(n.f1 != c.f1 && n.f2 != c.f2);
+        assert_eq!((n.v, n.vp), (c.v, c.vp));
+        assert!(angle(&n.f, &c.f) <= bound && angle(&n.fp, &c.fp) <= bound);
+        assert!(n.f != c.f && n.fp != c.fp);
     }
 }

@@ -102,8 +102,8 @@ pub fn validate(corrs: &[GrpsCorrespondence]) -> Result<(), GrpsError> {
         });
     }
     check_correspondences(corrs)?;
-    let central1 = all_equal(corrs.iter().map(|c| c.v1));
-    let central2 = all_equal(corrs.iter().map(|c| c.v2));
+    let central1 = all_equal(corrs.iter().map(|c| c.v));
+    let central2 = all_equal(corrs.iter().map(|c| c.vp));
     match (central1, central2) {
         (true, true) => Err(GrpsError::SingleCameraPair),
         (true, false) => Err(GrpsError::CentralView { view: 1 }),
@@ -120,8 +120,8 @@ pub fn grps_residual_direct(
     s: f64,
     c: &GrpsCorrespondence,
 ) -> f64 {
-    let g = r * c.f2;
-    t.dot(&c.f1.cross(&g)) - s * c.f1.dot(&(r * c.v2.cross(&c.f2))) + c.f1.dot(&c.v1.cross(&g))
+    let g = r * c.fp;
+    t.dot(&c.f.cross(&g)) - s * c.f.dot(&(r * c.vp.cross(&c.fp))) + c.f.dot(&c.v.cross(&g))
 }
 
 /// Least-squares depths `(alpha, alpha')` of `[f, -R f'] [alpha; alpha'] = s R v' + t - v`, or
@@ -134,9 +134,9 @@ pub fn triangulate_depths(
     s: f64,
     c: &GrpsCorrespondence,
 ) -> Option<(f64, f64)> {
-    let g = r * c.f2;
+    let g = r * c.fp;
     let cv = offset(r, t, s, c);
-    depths(&c.f1, &g, &cv)
+    depths(&c.f, &g, &cv)
 }
 
 /// Diagnostics of one simulated ray.
@@ -158,7 +158,7 @@ pub struct TriangulationInfo {
 /// The output of [`simulate_first_view`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct GrpsSimulation {
-    /// The input correspondences with `f1` replaced by the simulated unit ray.
+    /// The input correspondences with `f` replaced by the simulated unit ray.
     pub correspondences: Vec<GrpsCorrespondence>,
     /// Per-correspondence diagnostics, same order.
     pub info: Vec<TriangulationInfo>,
@@ -172,9 +172,9 @@ pub fn simulate_ray(
     s: f64,
     c: &GrpsCorrespondence,
 ) -> Option<(Vector3<f64>, TriangulationInfo)> {
-    let g = r * c.f2;
+    let g = r * c.fp;
     let cv = offset(r, t, s, c);
-    if let Some((alpha, alpha_prime)) = depths(&c.f1, &g, &cv) {
+    if let Some((alpha, alpha_prime)) = depths(&c.f, &g, &cv) {
         let d = g * alpha_prime + cv;
         let n = d.norm();
         if n > 1e-12 * (alpha_prime.abs() * g.norm() + cv.norm()) {
@@ -190,7 +190,7 @@ pub fn simulate_ray(
             return Some((f, info));
         }
     }
-    let f = project_direction(&c.f1, &g.cross(&cv))?;
+    let f = project_direction(&c.f, &g.cross(&cv))?;
     let info = TriangulationInfo {
         alpha: f64::NAN,
         alpha_prime: f64::NAN,
@@ -201,7 +201,7 @@ pub fn simulate_ray(
     Some((f, info))
 }
 
-/// The paper's geometric online simulator (module docs): every `f1` replaced by the simulated
+/// The paper's geometric online simulator (module docs): every `f` replaced by the simulated
 /// ray, so that `(R, t, s)` solves the returned correspondences exactly. Checks the pose and
 /// correspondences for non-finite values and zero bearings (not the count or the camera
 /// configuration: see [`validate`]).
@@ -220,7 +220,7 @@ pub fn simulate_first_view(
     })
 }
 
-/// [`simulate_first_view`] overwriting `f1` in place; `info` is cleared and refilled (its
+/// [`simulate_first_view`] overwriting `f` in place; `info` is cleared and refilled (its
 /// allocation is reused). On error the slice may be partly updated.
 pub fn simulate_first_view_in_place(
     r: &Matrix3<f64>,
@@ -234,7 +234,7 @@ pub fn simulate_first_view_in_place(
     info.clear();
     for (index, c) in corrs.iter_mut().enumerate() {
         let (f, i) = simulate_ray(r, t, s, c).ok_or(GrpsError::Degenerate { index })?;
-        c.f1 = f;
+        c.f = f;
         info.push(i);
     }
     Ok(())
@@ -250,11 +250,11 @@ pub fn project_ray(
     s: f64,
     c: &GrpsCorrespondence,
 ) -> Option<Vector3<f64>> {
-    let g = r * c.f2;
-    project_direction(&c.f1, &g.cross(&offset(r, t, s, c)))
+    let g = r * c.fp;
+    project_direction(&c.f, &g.cross(&offset(r, t, s, c)))
 }
 
-/// The minimal-angle simulator: every `f1` replaced by [`project_ray`]. Same checks as
+/// The minimal-angle simulator: every `f` replaced by [`project_ray`]. Same checks as
 /// [`simulate_first_view`].
 pub fn project_first_view(
     r: &Matrix3<f64>,
@@ -268,15 +268,15 @@ pub fn project_first_view(
         .iter()
         .enumerate()
         .map(|(index, c)| {
-            let f1 = project_ray(r, t, s, c).ok_or(GrpsError::Degenerate { index })?;
-            Ok(GrpsCorrespondence { f1, ..*c })
+            let f = project_ray(r, t, s, c).ok_or(GrpsError::Degenerate { index })?;
+            Ok(GrpsCorrespondence { f, ..*c })
         })
         .collect()
 }
 
 /// `c = s R v' + t - v`.
 fn offset(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> Vector3<f64> {
-    r * c.v2 * s + t - c.v1
+    r * c.vp * s + t - c.v
 }
 
 /// Least squares `[f, -g] [a; b] = c`.
@@ -320,14 +320,14 @@ fn check_pose(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64) -> Result<(), GrpsErro
 fn check_correspondences(corrs: &[GrpsCorrespondence]) -> Result<(), GrpsError> {
     for (index, c) in corrs.iter().enumerate() {
         let all =
-            c.f1.iter()
-                .chain(c.v1.iter())
-                .chain(c.f2.iter())
-                .chain(c.v2.iter());
+            c.f.iter()
+                .chain(c.v.iter())
+                .chain(c.fp.iter())
+                .chain(c.vp.iter());
         if !all.copied().all(f64::is_finite) {
             return Err(GrpsError::NonFinite { index });
         }
-        if c.f1.norm() <= ZERO_BEARING_NORM || c.f2.norm() <= ZERO_BEARING_NORM {
+        if c.f.norm() <= ZERO_BEARING_NORM || c.fp.norm() <= ZERO_BEARING_NORM {
             return Err(GrpsError::ZeroBearing { index });
         }
     }

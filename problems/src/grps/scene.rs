@@ -2,7 +2,7 @@
 //!
 //! # Convention
 //!
-//! A correspondence `(f, v) - (f', v')` (fields `f1, v1` and `f2, v2`) pairs a ray of the first
+//! A correspondence `(f, v) - (f', v')` (fields `f, v` and `fp, vp`) pairs a ray of the first
 //! generalized camera (view 1: bearing `f`, origin `v`, view-1 frame) with a ray of the second
 //! (view 2: `f'`, `v'`, view-2 frame, in view 2's own units). The relative pose and scale
 //! `(R, t, s)` maps view-2 coordinates into view 1: a point `Y2` of view 2 is
@@ -49,24 +49,24 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-/// One 2D-2D generalized correspondence: `alpha f1 + v1 = R (alpha' f2 + s v2) + t`.
+/// One 2D-2D generalized correspondence: `alpha f + v = R (alpha' fp + s vp) + t`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(from = "CorrespondenceRecord", into = "CorrespondenceRecord")]
 pub struct GrpsCorrespondence {
     /// Bearing `f` in view 1.
-    pub f1: Vector3<f64>,
+    pub f: Vector3<f64>,
     /// Ray origin `v` in view 1.
-    pub v1: Vector3<f64>,
+    pub v: Vector3<f64>,
     /// Bearing `f'` in view 2.
-    pub f2: Vector3<f64>,
+    pub fp: Vector3<f64>,
     /// Ray origin `v'` in view 2 (view 2's units).
-    pub v2: Vector3<f64>,
+    pub vp: Vector3<f64>,
 }
 
 /// A sampled GRPS problem with its ground truth (view 1 `= R (s view 2) + t`).
 ///
-/// Serialized (serde) as `{"correspondences": [{"f1": [x,y,z], "v1": [..], "f2": [..],
-/// "v2": [..]}, ..], "rotation": [[..],[..],[..]] (row-major), "translation": [x,y,z],
+/// Serialized (serde) as `{"correspondences": [{"f": [x,y,z], "v": [..], "fp": [..],
+/// "vp": [..]}, ..], "rotation": [[..],[..],[..]] (row-major), "translation": [x,y,z],
 /// "scale": s}`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(from = "SceneRecord", into = "SceneRecord")]
@@ -146,20 +146,20 @@ impl GrpsSceneConfig {
                 let d2 = r2.transpose() * (x - o2) / scale - v2;
                 if d1.norm() >= 1e-6 && d2.norm() >= 1e-6 {
                     correspondences.push(GrpsCorrespondence {
-                        f1: d1.normalize(),
-                        v1,
-                        f2: d2.normalize(),
-                        v2,
+                        f: d1.normalize(),
+                        v: v1,
+                        fp: d2.normalize(),
+                        vp: v2,
                     });
                     break;
                 }
             }
         }
         for c in &mut correspondences {
-            c.f1 = add_bearing_noise(&c.f1, self.noise_px, self.focal_px, rng);
+            c.f = add_bearing_noise(&c.f, self.noise_px, self.focal_px, rng);
         }
         for c in &mut correspondences {
-            c.f2 = add_bearing_noise(&c.f2, self.noise_px, self.focal_px, rng);
+            c.fp = add_bearing_noise(&c.fp, self.noise_px, self.focal_px, rng);
         }
         Ok(GrpsScene {
             correspondences,
@@ -177,19 +177,19 @@ impl GrpsSceneConfig {
 
 #[derive(Serialize, Deserialize)]
 struct CorrespondenceRecord {
-    f1: [f64; 3],
-    v1: [f64; 3],
-    f2: [f64; 3],
-    v2: [f64; 3],
+    f: [f64; 3],
+    v: [f64; 3],
+    fp: [f64; 3],
+    vp: [f64; 3],
 }
 
 impl From<CorrespondenceRecord> for GrpsCorrespondence {
     fn from(r: CorrespondenceRecord) -> Self {
         Self {
-            f1: r.f1.into(),
-            v1: r.v1.into(),
-            f2: r.f2.into(),
-            v2: r.v2.into(),
+            f: r.f.into(),
+            v: r.v.into(),
+            fp: r.fp.into(),
+            vp: r.vp.into(),
         }
     }
 }
@@ -197,10 +197,10 @@ impl From<CorrespondenceRecord> for GrpsCorrespondence {
 impl From<GrpsCorrespondence> for CorrespondenceRecord {
     fn from(c: GrpsCorrespondence) -> Self {
         Self {
-            f1: arr3(&c.f1),
-            v1: arr3(&c.v1),
-            f2: arr3(&c.f2),
-            v2: arr3(&c.v2),
+            f: arr3(&c.f),
+            v: arr3(&c.v),
+            fp: arr3(&c.fp),
+            vp: arr3(&c.vp),
         }
     }
 }

@@ -173,8 +173,76 @@ impl Dag {
         (lead, id)
     }
 
-    /// Builds a polynomial in unknowns and parameters, grouped by monomials in the unknowns.
+    /// Builds a polynomial in greedy multivariate Horner form: factor out the variable that
+    /// occurs in the most terms, `P = v * Q + R`, and recurse. Sub-polynomials are normalised
+    /// to a leading coefficient of one and memoised, so equal pieces (across equations and
+    /// derivatives) are built once.
     pub fn polynomial(&mut self, poly: &Poly, vars: &VarTable) -> NodeId {
+        if let Some(c) = poly.as_constant() {
+            return self.constant(c);
+        }
+        let (lead, id) = self.horner_normalised(poly, vars);
+        self.scaled(lead, id)
+    }
+
+    fn horner_normalised(&mut self, p: &Poly, vars: &VarTable) -> (f64, NodeId) {
+        let lead = p.terms.values().next().copied().unwrap_or(1.0);
+        let key: Vec<(Monomial, u64)> =
+            p.terms.iter().map(|(m, &c)| (m.clone(), (c / lead).to_bits())).collect();
+        if let Some(&id) = self.coefficients.get(&key) {
+            return (lead, id);
+        }
+        let normalised = p.scale(1.0 / lead);
+        let id = self.horner(&normalised, vars);
+        self.coefficients.insert(key, id);
+        (lead, id)
+    }
+
+    fn horner(&mut self, p: &Poly, vars: &VarTable) -> NodeId {
+        // Occurrence count of each variable over the terms.
+        let mut counts: BTreeMap<Var, usize> = BTreeMap::new();
+        for m in p.terms.keys() {
+            for &(v, _) in &m.0 {
+                *counts.entry(v).or_default() += 1;
+            }
+        }
+        let best = counts.iter().max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0))).map(|(&v, &c)| (v, c));
+        match best {
+            Some((v, count)) if count >= 2 => {
+                let mut quotient = Poly::zero();
+                let mut rest = Poly::zero();
+                for (m, &c) in &p.terms {
+                    match m.diff(v) {
+                        Some((_, reduced)) => quotient.add_term(reduced, c),
+                        None => rest.add_term(m.clone(), c),
+                    }
+                }
+                let vn = self.var(v, vars);
+                let q = self.polynomial(&quotient, vars);
+                let head = self.mul(vn, q);
+                if rest.is_zero() {
+                    return head;
+                }
+                // rest is built with its sign folded into the sum.
+                let (lead, r) = match rest.as_constant() {
+                    Some(c) => (c, None),
+                    None => {
+                        let (lead, r) = self.horner_normalised(&rest, vars);
+                        (lead, Some(r))
+                    }
+                };
+                self.signed_sum(vec![(1.0, Some(head)), (lead, r)])
+            }
+            _ => {
+                let terms: Vec<(f64, Option<NodeId>)> =
+                    p.terms.iter().map(|(m, &c)| (c, self.monomial(m, vars))).collect();
+                self.signed_sum(terms)
+            }
+        }
+    }
+
+    /// Builds a polynomial grouped by monomials in the unknowns (kept for comparison).
+    pub fn polynomial_grouped(&mut self, poly: &Poly, vars: &VarTable) -> NodeId {
         let mut groups: BTreeMap<Monomial, Poly> = BTreeMap::new();
         for (m, &c) in &poly.terms {
             let (xm, pm) = m.split(|v| vars.is_unknown(v));

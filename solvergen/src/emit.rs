@@ -74,11 +74,10 @@ impl Renderer<'_> {
         if let Some(ident) = self.leaf_ident(node) {
             return quote!(#ident);
         }
-        if let Node::Const(bits) = node {
-            let lit = f64_lit(f64::from_bits(*bits));
-            return quote!(S::from_f64(#lit));
-        }
-        let ident = format_ident!("t{}", id.0);
+        let ident = match node {
+            Node::Const(_) => format_ident!("c{}", id.0),
+            _ => format_ident!("t{}", id.0),
+        };
         quote!(#ident)
     }
 
@@ -103,7 +102,12 @@ impl Renderer<'_> {
                     };
                     loads.push(quote!(let #ident = #src;));
                 }
-                Node::Const(_) => {}
+                Node::Const(bits) => {
+                    // Hoisted once per function; the qualified path avoids num-traits' from_f64.
+                    let lit = f64_lit(f64::from_bits(*bits));
+                    let c = format_ident!("c{}", id.0);
+                    loads.push(quote!(let #c: S = <S as ::simhc::Scalar>::from_f64(#lit);));
+                }
                 Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
                     let (a, b) = (self.name(*a), self.name(*b));
                     let t = format_ident!("t{}", id.0);
@@ -137,7 +141,7 @@ fn assign_dense(r: &Renderer<'_>, target: TokenStream, entries: &[(TokenStream, 
         let v = r.name(*id);
         stmts.push(quote!(#target[#idx] = #v;));
     }
-    let fill = if zero { quote!(#target.fill(S::from_f64(0.0));) } else { quote!() };
+    let fill = if zero { quote!(#target.fill(<S as ::simhc::Scalar>::from_f64(0.0));) } else { quote!() };
     quote!(#fill #(#stmts)*)
 }
 

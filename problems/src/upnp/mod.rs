@@ -1,3 +1,19 @@
-//! Generalized absolute pose via UPnP.
+//! Generalized absolute pose via UPnP: declaration, scene sampler, cost matrix, simulator.
 pub mod geometry;
 pub mod scene;
+mod system;
+
+pub use system::upnp::*;
+
+use nalgebra::{SMatrix, SVector};
+
+/// The parameter vector of [`Upnp`] (upper triangle of `M`, row by row) from the cost matrix.
+pub fn params_of(m: &SMatrix<f64, 11, 11>) -> SVector<f64, 66> {
+    let mut globals = Globals::default();
+    for i in 0..11 {
+        for j in 0..11 {
+            globals.m[i][j] = m[(i, j)];
+        }
+    }
+    Upnp::params(&globals)
+}

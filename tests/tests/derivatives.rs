@@ -1,0 +1,256 @@
+//! Every generated Jacobian and parameter derivative against central differences, on random
+//! inputs (proptest), in f64 and in complex arithmetic; and the fused/separate entry points
+//! against each other.
+
+use nalgebra::{SMatrix, SVector};
+use num_complex::Complex;
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use simhc::{ParamDerivative, Scalar};
+use simhc_problems::{grps, upnp};
+
+#[simhc::simhc_problem]
+mod circle_line {
+    pub struct Unknowns {
+        x: Vec2,
+    }
+    pub struct Globals {
+        c: Vec2,
+        r2: Scalar,
+        a: Vec2,
+        b: Scalar,
+    }
+    pub fn global_equations() -> [Scalar; 2] {
+        let d = x - c;
+        [d.dot(d) - r2, a.dot(x) - b]
+    }
+}
+
+#[simhc::simhc_problem]
+mod p3p {
+    pub struct Unknowns {
+        d: Vec3,
+    }
+    pub struct Globals {
+        f1: Vec3,
+        f2: Vec3,
+        f3: Vec3,
+        s: Vec3,
+    }
+    pub fn global_equations() -> [Scalar; 3] {
+        let a = d[0] * f1;
+        let b = d[1] * f2;
+        let c = d[2] * f3;
+        [(a - b).norm_squared() - s[0], (b - c).norm_squared() - s[1], (a - c).norm_squared() - s[2]]
+    }
+}
+
+/// Exercises matrices, transposes, powers, division by constants and grad in one system.
+#[simhc::simhc_problem]
+mod kitchen_sink {
+    pub struct Unknowns {
+        q: Quat,
+        u: Scalar,
+    }
+    pub struct Row {
+        a: Vec3,
+        w: Scalar,
+    }
+    pub struct Globals {
+        k: Mat<3, 3>,
+        h: Sym<3>,
+    }
+    pub const ROWS: [usize; 2] = [3, 4];
+    pub fn row_equations() -> Scalar {
+        let r = rotation(q);
+        let b = (k * r.transpose()) * a;
+        b.dot(h * a) * u.powi(2) / 2.0 - w + a.cross(b)[1]
+    }
+    pub fn global_equations() -> [Scalar; 2] {
+        let e = q.dot(q).powi(2) * u;
+        let g = grad(e, q);
+        [g.sum() - 4, q.norm_squared() - 1]
+    }
+}
+
+fn random_vec<S: Scalar, const N: usize>(rng: &mut ChaCha8Rng, complex: bool) -> SVector<S, N> {
+    SVector::from_fn(|_, _| {
+        let re = rng.random_range(-1.5..1.5);
+        let im = if complex { rng.random_range(-1.0..1.0) } else { 0.0 };
+        S::from_real(re) + S::from_real(im) * imaginary_unit::<S>(complex)
+    })
+}
+
+fn imaginary_unit<S: Scalar>(complex: bool) -> S {
+    // For f64 the imaginary part is never used (complex == false).
+    if complex {
+        S::from_complex_parts()
+    } else {
+        S::from_real(0.0)
+    }
+}
+
+trait ComplexParts {
+    fn from_complex_parts() -> Self;
+}
+impl<T: Scalar> ComplexParts for T {
+    fn from_complex_parts() -> Self {
+        // sqrt(-1) in the scalar's field: NaN for f64, i for Complex.
+        T::from_real(-1.0).sqrt()
+    }
+}
+
+/// Relative closeness with a floor at scale 1.
+fn close<S: Scalar>(a: S, b: S, tol: f64, scale: f64) -> bool {
+    (a - b).modulus() <= tol * scale.max(1.0)
+}
+
+fn check<P, S, const NX: usize, const NF: usize, const NP: usize>(seed: u64, complex: bool)
+where
+    P: ParamDerivative<NX, NF, NP>,
+    S: Scalar,
+{
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let x: SVector<S, NX> = random_vec(&mut rng, complex);
+    let p: SVector<S, NP> = random_vec(&mut rng, complex);
+    let dp: SVector<S, NP> = random_vec(&mut rng, complex);
+
+    let mut f = SVector::<S, NF>::zeros();
+    let mut j = SMatrix::<S, NF, NX>::zeros();
+    let mut f2 = SVector::<S, NF>::zeros();
+    let mut j2 = SMatrix::<S, NF, NX>::zeros();
+    P::residual(&x, &p, &mut f);
+    P::jacobian(&x, &p, &mut j);
+    P::residual_jacobian(&x, &p, &mut f2, &mut j2);
+    let fscale = f.camax();
+    for i in 0..NF {
+        assert!(close(f[i], f2[i], 1e-12, fscale), "{}: fused residual differs, seed {seed}", P::NAME);
+    }
+    let jscale = j.camax();
+    for k in 0..NX * NF {
+        assert!(close(j[k], j2[k], 1e-12, jscale), "{}: fused Jacobian differs, seed {seed}", P::NAME);
+    }
+
+    // dF/dx by central differences.
+    let h = 1e-6;
+    let (mut fp, mut fm) = (SVector::<S, NF>::zeros(), SVector::<S, NF>::zeros());
+    for k in 0..NX {
+        let (mut xp, mut xm) = (x, x);
+        xp[k] += S::from_real(h);
+        xm[k] -= S::from_real(h);
+        P::residual(&xp, &p, &mut fp);
+        P::residual(&xm, &p, &mut fm);
+        for i in 0..NF {
+            let fd = (fp[i] - fm[i]) / S::from_real(2.0 * h);
+            assert!(
+                close(j[(i, k)], fd, 1e-6, jscale),
+                "{}: dF{i}/dx{k} = {:?}, central difference {:?}, seed {seed}",
+                P::NAME,
+                j[(i, k)],
+                fd
+            );
+        }
+    }
+
+    // dF/dp by central differences, and the directional derivative against the matrix.
+    let mut jp = SMatrix::<S, NF, NP>::zeros();
+    P::param_jacobian(&x, &p, &mut jp);
+    let jpscale = jp.camax();
+    for m in 0..NP {
+        let (mut pp, mut pm) = (p, p);
+        pp[m] += S::from_real(h);
+        pm[m] -= S::from_real(h);
+        P::residual(&x, &pp, &mut fp);
+        P::residual(&x, &pm, &mut fm);
+        for i in 0..NF {
+            let fd = (fp[i] - fm[i]) / S::from_real(2.0 * h);
+            assert!(
+                close(jp[(i, m)], fd, 1e-6, jpscale),
+                "{}: dF{i}/dp{m} = {:?}, central difference {:?}, seed {seed}",
+                P::NAME,
+                jp[(i, m)],
+                fd
+            );
+        }
+    }
+    let mut dir = SVector::<S, NF>::zeros();
+    P::param_directional(&x, &p, &dp, &mut dir);
+    let expected = jp * dp;
+    for i in 0..NF {
+        assert!(close(dir[i], expected[i], 1e-11, expected.camax()), "{}: dF/dp * dp differs, seed {seed}", P::NAME);
+    }
+}
+
+fn check_both<P, const NX: usize, const NF: usize, const NP: usize>(seed: u64)
+where
+    P: ParamDerivative<NX, NF, NP>,
+{
+    check::<P, f64, NX, NF, NP>(seed, false);
+    check::<P, Complex<f64>, NX, NF, NP>(seed, true);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn circle_line_derivatives(seed in any::<u64>()) {
+        check_both::<circle_line::CircleLine, 2, 2, 6>(seed);
+    }
+
+    #[test]
+    fn p3p_derivatives(seed in any::<u64>()) {
+        check_both::<p3p::P3p, 3, 3, 12>(seed);
+    }
+
+    #[test]
+    fn kitchen_sink_derivatives(seed in any::<u64>()) {
+        check_both::<kitchen_sink::KitchenSink3, 5, 5, 27>(seed);
+        check_both::<kitchen_sink::KitchenSink4, 5, 6, 31>(seed);
+    }
+
+    #[test]
+    fn grps_derivatives(seed in any::<u64>()) {
+        check_both::<grps::Grps7, 8, 8, 84>(seed);
+        check_both::<grps::Grps8, 8, 9, 96>(seed);
+    }
+
+    #[test]
+    fn upnp_derivatives(seed in any::<u64>()) {
+        check_both::<upnp::Upnp, 4, 5, 66>(seed);
+    }
+}
+
+#[test]
+fn kitchen_sink_matches_hand_computation() {
+    // One point evaluated by hand-written nalgebra code, independent of the generator.
+    use nalgebra::{Matrix3, Vector3};
+    let q = [0.3, -0.2, 0.5, 0.7];
+    let u = 1.3;
+    let a = Vector3::new(0.4, -1.1, 0.9);
+    let w = 0.25;
+    let k = Matrix3::new(1.0, 2.0, -1.0, 0.5, 0.0, 3.0, -2.0, 1.0, 0.5);
+    let h = Matrix3::new(2.0, 0.3, -0.4, 0.3, 1.0, 0.2, -0.4, 0.2, 3.0);
+    let r = simhc_problems::metrics::rotation_from_quat(q);
+    let b = k * r.transpose() * a;
+    let expected_row = b.dot(&(h * a)) * u * u / 2.0 - w + a.cross(&b)[1];
+
+    let mut globals = kitchen_sink::Globals::default();
+    for i in 0..3 {
+        for j in 0..3 {
+            globals.k[i][j] = k[(i, j)];
+            globals.h[i][j] = h[(i, j)];
+        }
+    }
+    let row = kitchen_sink::Row { a: a.into(), w };
+    let p = kitchen_sink::KitchenSink3::params(&[row; 3], &globals);
+    let x = SVector::<f64, 5>::from([q[0], q[1], q[2], q[3], u]);
+    let mut f = SVector::<f64, 5>::zeros();
+    <kitchen_sink::KitchenSink3 as simhc::Problem<5, 5, 27>>::residual(&x, &p, &mut f);
+    assert!((f[0] - expected_row).abs() < 1e-12, "{} vs {expected_row}", f[0]);
+    let n: f64 = q.iter().map(|v| v * v).sum();
+    // grad of n^2 u is 4 n u q; its sum minus 4.
+    let expected_g = 4.0 * n * u * q.iter().sum::<f64>() - 4.0;
+    assert!((f[3] - expected_g).abs() < 1e-12);
+    assert!((f[4] - (n - 1.0)).abs() < 1e-12);
+}

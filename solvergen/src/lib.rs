@@ -100,7 +100,12 @@ fn validate(cx: &mut Ctxt, decl: &decl::Declaration, probe: &lower::Instance) {
 pub fn expand_to_string(attr: TokenStream, item: TokenStream) -> Result<String, syn::Error> {
     let tokens = compile(attr, item)?;
     let file: syn::File = syn::parse2(tokens)?;
-    Ok(prettyplease::unparse(&file))
+    Ok(format_file(&file))
+}
+
+/// Formats Rust code the way generated files are formatted.
+pub fn format_file(file: &syn::File) -> String {
+    prettyplease::unparse(file)
 }
 
 /// Expands every `#[simhc_problem]` module of a Rust source file into one generated file with
@@ -126,6 +131,29 @@ pub fn generate_file(source: &str) -> Result<String, syn::Error> {
     }
     if !found {
         return Err(syn::Error::new(proc_macro2::Span::call_site(), "no #[simhc_problem] module in this file"));
+    }
+    Ok(out)
+}
+
+/// The built-in problems: (declaration source, generated file), relative to the workspace root.
+pub const BUILT_INS: &[(&str, &str)] = &[
+    ("problems/src/upnp/system.rs", "generated/upnp.rs"),
+    ("problems/src/grps/system.rs", "generated/grps.rs"),
+];
+
+/// The command that refreshes `generated/`.
+pub const REGENERATE_COMMAND: &str = "cargo run -p solvergen --bin regenerate";
+
+/// Files of `generated/` whose checked-in content differs from a fresh expansion, with the fresh
+/// content: `(generated path, fresh text, whether it differs)`.
+pub fn built_in_outputs(root: &std::path::Path) -> Result<Vec<(String, String, bool)>, String> {
+    let mut out = Vec::new();
+    for (src, dst) in BUILT_INS {
+        let source = std::fs::read_to_string(root.join(src)).map_err(|e| format!("cannot read {src}: {e}"))?;
+        let fresh = generate_file(&source).map_err(|e| format!("{src}: {e}"))?;
+        let current = std::fs::read_to_string(root.join(dst)).unwrap_or_default();
+        let differs = current != fresh;
+        out.push((dst.to_string(), fresh, differs));
     }
     Ok(out)
 }

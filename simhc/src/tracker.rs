@@ -1,1 +1,0 @@
-//! Path tracker (filled in by the tracker work).

@@ -1,0 +1,77 @@
+//! The adaptive step-size rule (see [`super::AdaptiveStep`] for the reasoning).
+
+use super::corrector::CorrectorReport;
+use super::options::AdaptiveStep;
+use super::Trouble;
+
+/// The contraction the step achieved or would have: measured `theta1` if there was a second
+/// update, else `omega |dx_0| / 2` from the previous `omega`, else unknown (NaN).
+#[inline]
+fn observed_theta(report: &CorrectorReport, omega: Option<f64>) -> f64 {
+    if report.theta1.is_finite() {
+        step_theta(report)
+    } else if report.theta_predicted.is_finite() {
+        report.theta_predicted
+    } else if let Some(omega) = omega {
+        0.5 * omega * report.norm_dx0
+    } else {
+        f64::NAN
+    }
+}
+
+/// The step-dependent part of the measured contraction: `theta1 - theta2` when a third update
+/// showed a step-independent linear rate (Gauss-Newton on a least-squares path:
+/// `theta1 ~ rate + omega |dx_0| / 2`, `theta2 ~ rate`), else `theta1`.
+#[inline]
+pub(crate) fn step_theta(report: &CorrectorReport) -> f64 {
+    let (t1, t2) = (report.theta1, report.theta2);
+    if t2.is_finite() && t2 < t1 {
+        (t1 - t2).max(0.1 * t1)
+    } else {
+        t1
+    }
+}
+
+/// Step factor after an accepted step of a predictor of order `order`.
+#[inline]
+pub(crate) fn grow_factor(
+    a: &AdaptiveStep,
+    order: u32,
+    report: &CorrectorReport,
+    omega: Option<f64>,
+    after_rejection: bool,
+) -> f64 {
+    let theta = observed_theta(report, omega);
+    let f = if theta.is_finite() && theta > 0.0 {
+        (a.target_contraction / theta).powf(1.0 / (order as f64 + 1.0))
+    } else {
+        a.max_growth
+    };
+    let upper = if after_rejection { 1.0 } else { a.max_growth };
+    // Accepted steps never shrink by more than the rejection rule would.
+    f.clamp(a.min_shrink, upper)
+}
+
+/// Step factor after a rejected step.
+#[inline]
+pub(crate) fn shrink_factor(
+    a: &AdaptiveStep,
+    order: u32,
+    trouble: Trouble,
+    report: Option<&CorrectorReport>,
+    omega: Option<f64>,
+) -> f64 {
+    match (trouble, report) {
+        (Trouble::Contraction | Trouble::NotConverged, Some(r)) => {
+            let theta = observed_theta(r, omega);
+            if theta.is_finite() && theta > 0.0 {
+                (a.target_contraction / theta)
+                    .powf(1.0 / (order as f64 + 1.0))
+                    .clamp(a.min_shrink, 0.5)
+            } else {
+                0.5
+            }
+        }
+        _ => 0.5,
+    }
+}

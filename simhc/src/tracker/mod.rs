@@ -77,7 +77,8 @@ pub enum TrackError {
         t: f64,
     },
     /// An accepted point (or a Newton iterate in [`newton`] / the fixed schedule) exceeded
-    /// `max_norm`: the path goes to infinity.
+    /// `max_norm`, or the adaptive step shrank to its minimum with corrector iterates beyond it:
+    /// the path goes to infinity.
     #[error("path diverged to infinity at t = {t}")]
     DivergedToInfinity {
         /// Last accepted `t`.
@@ -484,6 +485,8 @@ where
             let e = match trouble {
                 Trouble::Singular => TrackError::SingularJacobian { t },
                 Trouble::NonFinite => TrackError::NonFinite { t },
+                // Steps of every size leave the max-norm ball: the path goes to infinity.
+                Trouble::Diverged => TrackError::DivergedToInfinity { t },
                 _ => TrackError::StepSizeTooSmall { t },
             };
             return self.set_failed(e);

@@ -1,0 +1,163 @@
+//! Proof of the zero-allocation claim: a counting global allocator, armed only on this test's
+//! thread while `track` / `newton` run, for square, overdetermined, squared-up, complex and
+//! failing paths.
+#![allow(unsafe_code)]
+
+mod tracker_support;
+
+use nalgebra::{SVector, Vector1, Vector2};
+use num_complex::Complex;
+use simhc::homotopy::{
+    random_gamma, to_complex, FixedSystem, ParameterHomotopy, SquaredUp, StraightLine,
+};
+use simhc::tracker::{newton, track, NewtonOptions, TrackError, Tracker, TrackerOptions};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use tracker_support::*;
+
+/// Counts allocations made on threads that armed it; forwards everything to `System`.
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+thread_local! {
+    // `const` initialisation: no lazy registration, so reading it never allocates.
+    static ARMED: Cell<bool> = const { Cell::new(false) };
+}
+
+fn note_allocation() {
+    if ARMED.try_with(Cell::get).unwrap_or(false) {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+// SAFETY: every call is forwarded unchanged to the system allocator; the counter only reads a
+// thread-local flag and bumps an atomic.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        // SAFETY: forwarded with the caller's layout.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        // SAFETY: forwarded with the caller's layout.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note_allocation();
+        // SAFETY: `ptr` and `layout` come from this allocator, i.e. from `System`.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` and `layout` come from this allocator, i.e. from `System`.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Runs `f` with the counter armed on this thread; returns its result and the allocations.
+fn counted<R>(f: impl FnOnce() -> R) -> (R, usize) {
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    ARMED.with(|a| a.set(true));
+    let r = f();
+    ARMED.with(|a| a.set(false));
+    (r, ALLOCATIONS.load(Ordering::SeqCst) - before)
+}
+
+#[test]
+fn tracking_does_not_allocate() {
+    // The counter works (so a zero below means something).
+    let (v, n) = counted(|| vec![1u8; 16]);
+    assert_eq!(v.len(), 16);
+    assert!(n >= 1, "counting allocator is not armed");
+
+    let options = [TrackerOptions::default(), TrackerOptions::paper(0.05)];
+
+    // Square system, real, parameter homotopy.
+    let mut rng = rng(700);
+    let p0 = quad4_params(&mut rng);
+    let p1 = quad4_params(&mut rng);
+    let square = ParameterHomotopy::<Quad4, f64, Q4_NP>::new(p0, p1);
+    let x0 = quad4_solution(&p0);
+    for opts in &options {
+        let (r, n) = counted(|| track(&square, &x0, opts));
+        let r = r.unwrap();
+        assert!((r.x - quad4_solution(&p1)).amax() < 1e-10);
+        assert_eq!(n, 0, "square system: {n} allocations");
+        // The step-by-step interface too.
+        let (status, n) = counted(|| {
+            let mut tracker = Tracker::new(&square, *opts);
+            tracker.track(&x0).map(|r| r.stats)
+        });
+        assert!(status.is_ok());
+        assert_eq!(n, 0, "Tracker::track: {n} allocations");
+    }
+
+    // Overdetermined 3 x 2: Gauss-Newton on the straight line and the parameter path, and the
+    // squared-up system.
+    let q0 = over_params(&mut rng);
+    let mut q1 = q0;
+    for v in q1.iter_mut() {
+        *v += uniform(&mut rng, -0.3, 0.3);
+    }
+    let y0 = Vector2::new(q0[15], q0[16]);
+    let want = Vector2::new(q1[15], q1[16]);
+    let line = StraightLine::<Over3x2, f64, O_NP>::new(q0, q1);
+    let param = ParameterHomotopy::<Over3x2, f64, O_NP>::new(q0, q1);
+    let (sq, n) = counted(|| SquaredUp::new(line, 3));
+    assert_eq!(n, 0, "SquaredUp::new: {n} allocations");
+    for opts in &options {
+        for (name, res) in [
+            ("gauss-newton line", counted(|| track(&line, &y0, opts))),
+            ("gauss-newton parameter", counted(|| track(&param, &y0, opts))),
+            ("squared up", counted(|| track(&sq, &y0, opts))),
+        ] {
+            let (r, n) = res;
+            let r = r.unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!((r.x - want).amax() < 1e-10, "{name}");
+            assert_eq!(n, 0, "{name}: {n} allocations");
+        }
+    }
+    let (r, n) = counted(|| {
+        newton(&FixedSystem::<Over3x2, f64, O_NP>::new(q1), &want, 1.0, &NewtonOptions::default())
+    });
+    assert!(r.unwrap().converged);
+    assert_eq!(n, 0, "newton: {n} allocations");
+
+    // Complex: gamma trick over all six roots, and the complex detour.
+    let mut c = SVector::<Complex<f64>, 7>::zeros();
+    for k in 0..6 {
+        c[k] = Complex::new(uniform(&mut rng, -2.0, 2.0), uniform(&mut rng, -2.0, 2.0));
+    }
+    c[6] = Complex::new(1.0, 0.0);
+    let mut start = SVector::<Complex<f64>, 7>::zeros();
+    start[0] = Complex::new(-1.0, 0.0);
+    start[6] = Complex::new(1.0, 0.0);
+    let gamma_line = StraightLine::<Poly6, Complex<f64>, 7>::with_gamma(start, c, random_gamma(5));
+    let (results, n) = counted(|| {
+        let mut ok = 0;
+        for k in 0..6 {
+            let s = Complex::from_polar(1.0, std::f64::consts::TAU * k as f64 / 6.0);
+            ok += track(&gamma_line, &Vector1::new(s), &TrackerOptions::default()).is_ok() as usize;
+        }
+        ok
+    });
+    assert_eq!(results, 6);
+    assert_eq!(n, 0, "complex gamma trick: {n} allocations");
+    let detour =
+        ParameterHomotopy::<Quad4, Complex<f64>, Q4_NP>::with_complex_detour(&p0, &p1, 0.3, 11);
+    let cx0 = to_complex(&x0);
+    let (r, n) = counted(|| track(&detour, &cx0, &TrackerOptions::default()));
+    assert!(r.is_ok());
+    assert_eq!(n, 0, "complex detour: {n} allocations");
+
+    // Failing paths return their error without allocating either.
+    let fold = ParameterHomotopy::<FoldCubic, f64, 1>::new(Vector1::new(0.0), Vector1::new(3.0));
+    let (r, n) = counted(|| track(&fold, &Vector1::new(-(3.0f64.sqrt())), &TrackerOptions::default()));
+    assert!(matches!(r, Err(TrackError::StepSizeTooSmall { .. })));
+    assert_eq!(n, 0, "failing path: {n} allocations");
+}

@@ -5,8 +5,8 @@ mod tracker_support;
 use nalgebra::{SMatrix, SVector, Vector1, Vector2, Vector3};
 use simhc::homotopy::{FixedSystem, Homotopy, ParameterHomotopy, SquaredUp, StraightLine};
 use simhc::tracker::{
-    newton, track, AdaptiveStep, NewtonOptions, StepControl, TrackError, Tracker, TrackerOptions,
-    TrackerStatus,
+    newton, track, AdaptiveStep, DragStep, NewtonOptions, StepControl, TrackError, Tracker,
+    TrackerOptions, TrackerStatus,
 };
 use tracker_support::*;
 
@@ -246,4 +246,31 @@ fn no_panic_on_garbage() {
     }
     println!("garbage: {ok} ok, {err} errors");
     assert!(ok > 0 && err > 0);
+}
+
+#[test]
+fn drag_steps_jump_a_hysteresis_fold_like_the_paper() {
+    // x^3 - 3x - a for a from -3 to 3: the only real root at a = -3 is on the left branch, which
+    // folds at a = 2; beyond it the only real root is on the right branch (hysteresis).
+    let a0 = Vector1::new(-3.0);
+    let x0 = newton(
+        &FixedSystem::<FoldCubic, f64, 1>::new(a0),
+        &Vector1::new(-2.0),
+        0.0,
+        &NewtonOptions::default(),
+    )
+    .unwrap()
+    .x;
+    let h = ParameterHomotopy::<FoldCubic, f64, 1>::new(a0, Vector1::new(3.0));
+    // The faithful tracker stops at the fold (a = 2 is t = 5/6) ...
+    let e = track(&h, &x0, &TrackerOptions::default()).unwrap_err();
+    assert!(matches!(e, TrackError::StepSizeTooSmall { t } if (t - 5.0 / 6.0).abs() < 1e-3), "{e:?}");
+    // ... a drag step jumps to the right branch, as the paper's fixed schedule does.
+    let drag = AdaptiveStep { drag: Some(DragStep::default()), ..Default::default() };
+    let r = track(&h, &x0, &TrackerOptions::adaptive(drag)).unwrap();
+    println!("{:?}", r.stats);
+    assert!(r.stats.drag_steps >= 1);
+    assert!((r.x[0].powi(3) - 3.0 * r.x[0] - 3.0).abs() < 1e-12 && r.x[0] > 2.0);
+    let paper = track(&h, &x0, &TrackerOptions::paper(0.05)).unwrap();
+    assert!((paper.x - r.x).amax() < 1e-10);
 }

@@ -4,7 +4,7 @@
 //! Why not nalgebra's `LU`/`QR`: for sizes that are const generics of the caller, nalgebra's
 //! decompositions need `Const<N>: DimMin<Const<N>>` bounds (typenum) that would leak into every
 //! generic signature of the tracker. These are a few dozen lines, allocation-free, with the
-//! singularity test the tracker needs (a relative pivot threshold), and the factorization is kept
+//! singularity test the tracker needs (a pivot threshold relative to the matrix norm), and the factorization is kept
 //! so that one Jacobian serves several right-hand sides (Newton update and path tangent).
 //!
 //! Least squares (`NF > NX`): `J^H J dx = J^H b` by Cholesky. This squares the condition
@@ -50,21 +50,15 @@ impl<S: Scalar, const NX: usize, const NF: usize> LinearSolver<S, NX, NF> {
     pub(crate) fn factor(&mut self, j: &SMatrix<S, NF, NX>) -> Result<(), FactorError> {
         self.valid = false;
         if NF == NX {
-            for c in 0..NX {
-                for r in 0..NX {
-                    self.m[(r, c)] = j[(r, c)];
-                }
+            // Same column-major layout: copy straight through.
+            for (d, s) in self.m.as_mut_slice().iter_mut().zip(j.as_slice()) {
+                *d = *s;
             }
-            lu_in_place(&mut self.m, &mut self.perm)?;
+            lu_in_place::<S, NX>(self.m.as_mut_slice(), &mut self.perm)?;
         } else {
             self.j = *j;
-            // Lower triangle of the Gram matrix; columns are contiguous in nalgebra.
-            for c in 0..NX {
-                for r in c..NX {
-                    self.m[(r, c)] = j.column(r).dotc(&j.column(c));
-                }
-            }
-            cholesky_in_place(&mut self.m)?;
+            gram_lower::<S, NX, NF>(j.as_slice(), self.m.as_mut_slice());
+            cholesky_in_place::<S, NX>(self.m.as_mut_slice())?;
         }
         self.valid = true;
         Ok(())
@@ -81,52 +75,103 @@ impl<S: Scalar, const NX: usize, const NF: usize> LinearSolver<S, NX, NF> {
             return x;
         }
         if NF == NX {
-            for i in 0..NX {
-                x[i] = b[i];
+            for (d, s) in x.as_mut_slice().iter_mut().zip(b.as_slice()) {
+                *d = *s;
             }
-            lu_solve(&self.m, &self.perm, &mut x);
+            lu_solve::<S, NX>(self.m.as_slice(), &self.perm, x.as_mut_slice());
         } else {
-            for c in 0..NX {
-                x[c] = self.j.column(c).dotc(b);
+            // J^H b, column by column.
+            for (xc, col) in x.iter_mut().zip(self.j.as_slice().chunks_exact(NF)) {
+                *xc = dotc(col, b.as_slice());
             }
-            cholesky_solve(&self.m, &mut x);
+            cholesky_solve::<S, NX>(self.m.as_slice(), x.as_mut_slice());
         }
         x
     }
 }
 
-/// Largest `|a_ij|_1` and whether all entries are finite.
-#[inline]
-fn max_entry<S: Scalar, const R: usize, const C: usize>(a: &SMatrix<S, R, C>) -> (f64, bool) {
-    let mut m = 0.0f64;
-    let mut finite = true;
-    for e in a.iter() {
-        finite &= e.is_finite_value();
-        m = m.max(e.norm1());
+/// `sum_i conj(a_i) b_i`, with four partial sums so that the additions do not form one long
+/// dependency chain (these dot products are short, 8-10 terms, and latency-bound).
+#[inline(always)]
+fn dotc<S: Scalar>(a: &[S], b: &[S]) -> S {
+    let mut acc = [S::zero(); 4];
+    let mut ac = a.chunks_exact(4);
+    let mut bc = b.chunks_exact(4);
+    for (x, y) in (&mut ac).zip(&mut bc) {
+        for ((s, &xi), &yi) in acc.iter_mut().zip(x).zip(y) {
+            *s += xi.conjugate() * yi;
+        }
     }
-    (m, finite)
+    for ((s, &xi), &yi) in acc.iter_mut().zip(ac.remainder()).zip(bc.remainder()) {
+        *s += xi.conjugate() * yi;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
-/// In-place LU with partial pivoting, `P A = L U`, `L` unit lower (below the diagonal), `U` on
-/// and above. Singular when a pivot is at most `N * eps * max |a_ij|` (in the 1-norm of complex
-/// entries, which is what the pivot search compares; an all-zero matrix is singular).
+/// `sum_i conj(a_i) b_i` for the short, varying-length sums of the triangular solves.
+#[inline(always)]
+fn dotc_short<S: Scalar>(a: &[S], b: &[S]) -> S {
+    let mut s = S::zero();
+    for (&ai, &bi) in a.iter().zip(b) {
+        s += ai.conjugate() * bi;
+    }
+    s
+}
+
+/// Lower triangle of `J^H J` (`J` column-major `NF x NX`) into `g` (column-major `NX x NX`).
+#[inline]
+fn gram_lower<S: Scalar, const NX: usize, const NF: usize>(j: &[S], g: &mut [S]) {
+    for (c, gc) in g.chunks_exact_mut(NX).enumerate() {
+        let Some(jc) = j.get(c * NF..(c + 1) * NF) else { return };
+        for (r, gr) in gc.iter_mut().enumerate().skip(c) {
+            if let Some(jr) = j.get(r * NF..(r + 1) * NF) {
+                *gr = dotc(jr, jc);
+            }
+        }
+    }
+}
+
+/// The matrix 1-norm `max_c sum_r |a_rc|_1` of the column-major `N x N` matrix `a`, and whether
+/// all entries are finite. Column sums are independent dependency chains (a running `max` over
+/// all entries would serialize on its latency), and a non-finite entry makes its column sum
+/// non-finite, so one pass answers both.
+#[inline]
+fn norm1_finite<S: Scalar, const N: usize>(a: &[S]) -> (f64, bool) {
+    let mut sums = [0.0f64; N];
+    for (sum, col) in sums.iter_mut().zip(a.chunks_exact(N)) {
+        *sum = col.iter().map(|e| e.norm1()).sum();
+    }
+    let finite = sums.iter().all(|v| v.is_finite());
+    (sums.iter().fold(0.0f64, |m, &v| m.max(v)), finite)
+}
+
+/// In-place LU with partial pivoting of the column-major `N x N` matrix `a`, `P A = L U`, `L`
+/// unit lower (below the diagonal), `U` on and above. Singular when a pivot is at most
+/// `N * eps * |A|_1` (matrix 1-norm, complex entries measured by `|re| + |im|` as in the pivot
+/// search; an all-zero matrix is singular): such a pivot means `cond(A) >~ 1 / (N eps)`. Column-oriented (right-looking) on slices, so the
+/// inner loops run over contiguous memory without index arithmetic.
 #[inline]
 fn lu_in_place<S: Scalar, const N: usize>(
-    a: &mut SMatrix<S, N, N>,
+    a: &mut [S],
     perm: &mut [usize; N],
 ) -> Result<(), FactorError> {
-    let (scale, finite) = max_entry(a);
+    if a.len() != N * N {
+        return Err(FactorError::NonFinite);
+    }
+    let (scale, finite) = norm1_finite::<S, N>(a);
     if !finite {
         return Err(FactorError::NonFinite);
     }
     let threshold = scale * (N as f64) * f64::EPSILON;
     for k in 0..N {
+        // Pivot search in column k, rows k..N.
+        let col_k = &a[k * N..(k + 1) * N];
         let mut p = k;
-        let mut best = a[(k, k)].norm1();
-        for i in k + 1..N {
-            let v = a[(i, k)].norm1();
-            if v > best {
-                best = v;
+        let mut best = -1.0f64;
+        for (i, v) in col_k.iter().enumerate().skip(k) {
+            let m = v.norm1();
+            if m > best {
+                best = m;
                 p = i;
             }
         }
@@ -135,17 +180,21 @@ fn lu_in_place<S: Scalar, const N: usize>(
         }
         perm[k] = p;
         if p != k {
-            a.swap_rows(k, p);
+            for col in a.chunks_exact_mut(N) {
+                col.swap(k, p);
+            }
         }
-        let inv = S::one() / a[(k, k)];
-        for i in k + 1..N {
-            a[(i, k)] *= inv;
+        let (left, right) = a.split_at_mut((k + 1) * N);
+        let col_k = &mut left[k * N..];
+        let inv = S::one() / col_k[k];
+        for l in &mut col_k[k + 1..] {
+            *l *= inv;
         }
-        for c in k + 1..N {
-            let akc = a[(k, c)];
-            for i in k + 1..N {
-                let l = a[(i, k)];
-                a[(i, c)] -= l * akc;
+        let lk = &col_k[k + 1..];
+        for col_c in right.chunks_exact_mut(N) {
+            let akc = col_c[k];
+            for (x, &l) in col_c[k + 1..].iter_mut().zip(lk) {
+                *x -= l * akc;
             }
         }
     }
@@ -154,41 +203,43 @@ fn lu_in_place<S: Scalar, const N: usize>(
 
 /// Solves `A x = b` in place from the factors of [`lu_in_place`].
 #[inline]
-fn lu_solve<S: Scalar, const N: usize>(
-    lu: &SMatrix<S, N, N>,
-    perm: &[usize; N],
-    x: &mut SVector<S, N>,
-) {
-    for k in 0..N {
-        let p = perm[k];
+fn lu_solve<S: Scalar, const N: usize>(lu: &[S], perm: &[usize; N], x: &mut [S]) {
+    if lu.len() != N * N || x.len() != N {
+        return;
+    }
+    for (k, &p) in perm.iter().enumerate() {
         if p != k && p < N {
-            x.swap_rows(k, p);
+            x.swap(k, p);
         }
     }
     // L y = P b, unit diagonal, column-oriented.
-    for k in 0..N {
+    for (k, col) in lu.chunks_exact(N).enumerate() {
         let xk = x[k];
-        for i in k + 1..N {
-            x[i] -= lu[(i, k)] * xk;
+        for (xi, &l) in x[k + 1..].iter_mut().zip(&col[k + 1..]) {
+            *xi -= l * xk;
         }
     }
     // U x = y, column-oriented.
-    for k in (0..N).rev() {
-        let xk = x[k] / lu[(k, k)];
+    for (k, col) in lu.chunks_exact(N).enumerate().rev() {
+        let xk = x[k] / col[k];
         x[k] = xk;
-        for i in 0..k {
-            x[i] -= lu[(i, k)] * xk;
+        for (xi, &u) in x[..k].iter_mut().zip(&col[..k]) {
+            *xi -= u * xk;
         }
     }
 }
 
-/// In-place Cholesky `A = L L^H` of a Hermitian positive definite matrix given by its lower
-/// triangle. Singular when a pivot `d_k` is at most `N * eps * max_k a_kk`.
+/// In-place Cholesky `A = L L^H` of the column-major Hermitian positive definite `N x N` matrix
+/// given by its lower triangle (left-looking, column by column). Singular when a pivot `d_k` is
+/// at most `N * eps * max_k a_kk`.
 #[inline]
-fn cholesky_in_place<S: Scalar, const N: usize>(a: &mut SMatrix<S, N, N>) -> Result<(), FactorError> {
+fn cholesky_in_place<S: Scalar, const N: usize>(a: &mut [S]) -> Result<(), FactorError> {
+    if a.len() != N * N {
+        return Err(FactorError::NonFinite);
+    }
     let mut scale = 0.0f64;
     for k in 0..N {
-        let d = a[(k, k)];
+        let d = a[k * N + k];
         if !d.is_finite_value() {
             return Err(FactorError::NonFinite);
         }
@@ -196,10 +247,16 @@ fn cholesky_in_place<S: Scalar, const N: usize>(a: &mut SMatrix<S, N, N>) -> Res
     }
     let threshold = scale * (N as f64) * f64::EPSILON;
     for c in 0..N {
-        let mut d = a[(c, c)].real();
-        for k in 0..c {
-            d -= a[(c, k)].modulus_squared();
+        let (left, right) = a.split_at_mut(c * N);
+        let col_c = &mut right[..N];
+        // col_c[c..] -= sum_k L[c..][k] * conj(L[c][k]) over the finished columns k < c.
+        for col_k in left.chunks_exact(N) {
+            let lck = col_k[c].conjugate();
+            for (x, &l) in col_c[c..].iter_mut().zip(&col_k[c..]) {
+                *x -= l * lck;
+            }
         }
+        let d = col_c[c].real();
         if d.is_nan() {
             return Err(FactorError::NonFinite);
         }
@@ -207,40 +264,36 @@ fn cholesky_in_place<S: Scalar, const N: usize>(a: &mut SMatrix<S, N, N>) -> Res
             return Err(FactorError::Singular);
         }
         let lcc = d.sqrt();
-        a[(c, c)] = S::from_real(lcc);
+        col_c[c] = S::from_real(lcc);
         let inv = S::from_real(1.0 / lcc);
-        for r in c + 1..N {
-            let mut s = a[(r, c)];
-            for k in 0..c {
-                s -= a[(r, k)] * a[(c, k)].conjugate();
-            }
-            if !s.is_finite_value() {
+        for x in &mut col_c[c + 1..] {
+            *x *= inv;
+            if !x.is_finite_value() {
                 return Err(FactorError::NonFinite);
             }
-            a[(r, c)] = s * inv;
         }
     }
     Ok(())
 }
 
-/// Solves `L L^H x = b` in place.
+/// Solves `L L^H x = b` in place (`L` column-major lower triangle).
 #[inline]
-fn cholesky_solve<S: Scalar, const N: usize>(l: &SMatrix<S, N, N>, x: &mut SVector<S, N>) {
+fn cholesky_solve<S: Scalar, const N: usize>(l: &[S], x: &mut [S]) {
+    if l.len() != N * N || x.len() != N {
+        return;
+    }
     // L y = b, column-oriented.
-    for k in 0..N {
-        let yk = x[k] / l[(k, k)];
+    for (k, col) in l.chunks_exact(N).enumerate() {
+        let yk = x[k] / col[k];
         x[k] = yk;
-        for i in k + 1..N {
-            x[i] -= l[(i, k)] * yk;
+        for (xi, &lik) in x[k + 1..].iter_mut().zip(&col[k + 1..]) {
+            *xi -= lik * yk;
         }
     }
-    // L^H x = y, row i of L^H is column i of L conjugated.
-    for k in (0..N).rev() {
-        let mut s = x[k];
-        for i in k + 1..N {
-            s -= l[(i, k)].conjugate() * x[i];
-        }
-        x[k] = s / l[(k, k)];
+    // L^H x = y: row k of L^H is column k of L conjugated.
+    for (k, col) in l.chunks_exact(N).enumerate().rev() {
+        let s = x[k] - dotc_short(&col[k + 1..], &x[k + 1..]);
+        x[k] = s / col[k];
     }
 }
 

@@ -43,7 +43,7 @@ mod predictor;
 mod step_size;
 
 pub use corrector::{newton, NewtonResult};
-pub use options::{AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackerOptions};
+pub use options::{AdaptiveStep, DragStep, NewtonOptions, Predictor, StepControl, TrackerOptions};
 
 use crate::homotopy::Homotopy;
 use crate::Scalar;
@@ -156,6 +156,8 @@ pub struct TrackStats {
     pub newton_iterations: usize,
     /// All Jacobian factorizations: corrector iterations plus predictor stages.
     pub factorizations: usize,
+    /// Drag steps taken by the adaptive tracker (see [`DragStep`]).
+    pub drag_steps: usize,
 }
 
 impl TrackStats {
@@ -349,13 +351,24 @@ where
         if self.state.stats.steps() >= self.options.max_steps {
             return self.set_failed(TrackError::MaxSteps { t: t0 });
         }
-        let (t1, fixed) = match self.options.step {
-            StepControl::Fixed { dt } => {
+        // A "fixed" step is accepted whether or not its corrector converged: the paper's
+        // schedule, and the adaptive tracker's drag steps over stalls.
+        let drag = match self.options.step {
+            StepControl::Adaptive(AdaptiveStep { drag: Some(d), .. }) if self.state.dt < d.below => {
+                Some(d)
+            }
+            _ => None,
+        };
+        let (t1, fixed) = match (self.options.step, drag) {
+            (StepControl::Fixed { dt }, _) => {
                 let k = self.state.fixed_index + 1;
                 let t1 = (k as f64 * dt).min(1.0);
                 (if 1.0 - t1 <= 1e-12 { 1.0 } else { t1 }, true)
             }
-            StepControl::Adaptive(_) => {
+            (StepControl::Adaptive(_), Some(d)) => {
+                (if t0 + 1.05 * d.dt >= 1.0 { 1.0 } else { t0 + d.dt }, true)
+            }
+            (StepControl::Adaptive(_), None) => {
                 let dt = self.state.dt;
                 // Stretch the step to land on 1 rather than leave a sliver.
                 (if t0 + 1.05 * dt >= 1.0 { 1.0 } else { t0 + dt }, false)
@@ -387,8 +400,8 @@ where
         };
 
         let at_end = t1 >= 1.0;
-        let settings = match opts.step {
-            StepControl::Fixed { .. } => CorrectorSettings {
+        let settings = match (opts.step, drag) {
+            (StepControl::Fixed { .. }, _) => CorrectorSettings {
                 max_iterations: opts.max_newton_iterations,
                 tolerance: if at_end { opts.final_tolerance } else { opts.path_tolerance },
                 reduction: 0.0,
@@ -398,18 +411,35 @@ where
                 max_norm: opts.max_norm,
                 max_first_update: f64::INFINITY,
             },
-            StepControl::Adaptive(a) => CorrectorSettings {
+            (StepControl::Adaptive(_), Some(d)) => CorrectorSettings {
+                max_iterations: d.max_newton_iterations,
+                tolerance: opts.path_tolerance,
+                reduction: opts.path_reduction,
+                max_contraction: f64::INFINITY,
+                omega: None,
+                estimate_error: true,
+                max_norm: opts.max_norm,
+                max_first_update: f64::INFINITY,
+            },
+            (StepControl::Adaptive(a), None) => CorrectorSettings {
                 max_iterations: opts.max_newton_iterations,
                 // The last step is accepted like any other; `finish` then polishes the end
                 // point to `final_tolerance` (demanding it here would reject good steps).
                 tolerance: opts.path_tolerance,
                 reduction: opts.path_reduction,
                 max_contraction: a.max_contraction,
-                omega: self.state.omega,
+                omega: if NF == NX { self.state.omega } else { None },
                 estimate_error: true,
                 max_norm: opts.max_norm,
-                max_first_update: a.max_relative_correction
-                    * weighted_norm(&(x - self.state.x), &self.state.weights),
+                // The first update also removes what is left of the current point's error.
+                // Not for Gauss-Newton (see `AdaptiveStep` on overdetermined systems).
+                max_first_update: if NF == NX {
+                    a.max_relative_correction
+                        * weighted_norm(&(x - self.state.x), &self.state.weights)
+                        + 2.0 * self.state.accuracy.max(opts.path_tolerance)
+                } else {
+                    f64::INFINITY
+                },
             },
         };
         let report = correct(
@@ -421,15 +451,29 @@ where
             &settings,
             &mut self.state.stats,
         );
+        if let Some(d) = drag {
+            if matches!(report.outcome, Ok(()) | Err(Trouble::NotConverged)) {
+                self.state.stats.drag_steps += 1;
+                // Resume adaptive stepping from the drag step's size.
+                self.state.dt = d.dt;
+                self.state.omega = None;
+            }
+        }
         match report.outcome {
-            Ok(()) => self.accept(x, t1, &report),
-            Err(Trouble::NotConverged) if fixed => self.accept(x, t1, &report),
+            Ok(()) => self.accept(x, t1, &report, drag.is_some()),
+            Err(Trouble::NotConverged) if fixed => self.accept(x, t1, &report, drag.is_some()),
             Err(trouble) if fixed => self.set_failed(trouble.into_error(t0)),
             Err(trouble) => self.reject(trouble, Some(&report)),
         }
     }
 
-    fn accept(&mut self, x: SVector<S, NX>, t1: f64, report: &CorrectorReport) -> TrackerStatus {
+    fn accept(
+        &mut self,
+        x: SVector<S, NX>,
+        t1: f64,
+        report: &CorrectorReport,
+        dragged: bool,
+    ) -> TrackerStatus {
         let after_rejection = self.state.last_rejected;
         let st = &mut self.state;
         st.x = x;
@@ -442,7 +486,9 @@ where
             return self.set_failed(TrackError::DivergedToInfinity { t: t1 });
         }
         let omega_before = st.omega;
-        if report.norm_dx1 > OMEGA_NOISE_FLOOR && report.norm_dx0 > 0.0 {
+        if dragged {
+            // A drag step's corrector says nothing about the path's contraction.
+        } else if report.norm_dx1 > OMEGA_NOISE_FLOOR && report.norm_dx0 > 0.0 {
             st.omega = Some(2.0 * step_size::step_theta(report) / report.norm_dx0);
         } else if report.theta1.is_finite() {
             // A second update at rounding level says nothing about omega (it would be ~0 and
@@ -458,14 +504,18 @@ where
             Ok(v) => self.state.tangent = v,
             Err(e) => return self.set_failed(e.into_error(t1)),
         }
-        if let StepControl::Adaptive(a) = self.options.step {
-            let f = step_size::grow_factor(
-                &a,
-                self.options.predictor.order(),
-                report,
-                omega_before,
-                after_rejection,
-            );
+        if let (StepControl::Adaptive(a), false) = (self.options.step, dragged) {
+            let f = if NF == NX {
+                step_size::grow_factor(
+                    &a,
+                    self.options.predictor.order(),
+                    report,
+                    omega_before,
+                    after_rejection,
+                )
+            } else {
+                step_size::iteration_factor(&a, report, after_rejection)
+            };
             self.state.dt = (self.state.dt * f).min(a.max);
         }
         self.state.status
@@ -478,7 +528,11 @@ where
         let st = &mut self.state;
         st.stats.rejected_steps += 1;
         st.last_rejected = true;
-        let f = step_size::shrink_factor(&a, self.options.predictor.order(), trouble, report, st.omega);
+        let f = if NF == NX {
+            step_size::shrink_factor(&a, self.options.predictor.order(), trouble, report, st.omega)
+        } else {
+            0.5
+        };
         st.dt *= f;
         if st.dt < a.min {
             let t = st.t;

@@ -44,6 +44,11 @@ impl Predictor {
 ///   by about the whole move is converging to a *different* path that passes nearby — the
 ///   classic path jump, which the contraction test alone does not see (Newton contracts fast
 ///   towards any regular root);
+/// - for overdetermined systems (`NF > NX`, Gauss-Newton) the step follows the corrector's
+///   iteration count instead (grow by 2 after at most two iterations, keep after three, shrink
+///   otherwise), without the path-jump guard and the `omega` prediction: on an inconsistent
+///   homotopy the predictor is only first order and `theta` has a step-independent floor, see
+///   the `step_size` module;
 /// - before a second Newton evaluation, `omega` from the previous step predicts `theta`; a
 ///   prediction above `max_contraction` rejects at once (saves one evaluation per rejection).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -68,6 +73,8 @@ pub struct AdaptiveStep {
     pub target_contraction: f64,
     /// Largest growth factor of the step after an accepted step. Default `4`.
     pub max_growth: f64,
+    /// Paper-style fallback over stalls; `None` (default) tracks faithfully and fails at folds.
+    pub drag: Option<DragStep>,
     /// Smallest shrink factor after a rejection (the controller may shrink less when `theta`
     /// says the step was only slightly too long). Default `0.25`; singular or non-finite
     /// rejections shrink by `0.5`.
@@ -84,8 +91,35 @@ impl Default for AdaptiveStep {
             max_relative_correction: 0.25,
             target_contraction: 0.05,
             max_growth: 4.0,
+            drag: None,
             min_shrink: 0.25,
         }
+    }
+}
+
+/// A paper-style step the adaptive tracker takes instead of shrinking below `below`.
+///
+/// Why: a real path that turns back (a fold) cannot be followed past the fold; the adaptive
+/// controller shrinks its steps towards it and fails. The paper's fixed schedule instead
+/// *drags* the point over: a step of fixed size whose Gauss-Newton corrector lands on whatever
+/// branch is nearby, accepted whether it converged or not. On GRPS with a simulated start that
+/// often recovers the right solution (the end point is corrected at `t = 1` anyway). With a
+/// drag, the adaptive tracker behaves like the paper's at stalls and stays adaptive elsewhere;
+/// it is no longer a faithful path tracker (so not for all-roots work), and
+/// [`super::TrackStats::drag_steps`] counts the drags.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DragStep {
+    /// Drag when the adaptive step would be smaller than this (e.g. `1e-3`).
+    pub below: f64,
+    /// Size of a drag step (e.g. the paper's `0.05`); adaptive stepping resumes from it.
+    pub dt: f64,
+    /// (Gauss-)Newton iterations of a drag step's corrector (the paper's `5`).
+    pub max_newton_iterations: usize,
+}
+
+impl Default for DragStep {
+    fn default() -> Self {
+        Self { below: 1e-3, dt: 0.05, max_newton_iterations: 5 }
     }
 }
 

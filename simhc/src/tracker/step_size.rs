@@ -75,3 +75,29 @@ pub(crate) fn shrink_factor(
         _ => 0.5,
     }
 }
+
+/// Step factor after an accepted Gauss-Newton step (`NF > NX`), from the number of corrector
+/// iterations: grow after an easy step (at most two), keep after three, shrink after more.
+///
+/// Why not the contraction rule: on an inconsistent homotopy (the straight line of an
+/// overdetermined system) the tangent `-J^+ dH/dt` is the tangent of the least-squares path only
+/// where the residual vanishes, so the predictor error is first order whatever the predictor, and
+/// `theta` contains Gauss-Newton's step-independent linear rate. Neither scales like
+/// `dt^(p+1)`; the iteration count is the robust signal.
+#[inline]
+pub(crate) fn iteration_factor(
+    a: &AdaptiveStep,
+    report: &CorrectorReport,
+    after_rejection: bool,
+) -> f64 {
+    let f = match report.iterations {
+        0..=2 => a.max_growth.min(2.0),
+        3 => 1.0,
+        _ => 0.7,
+    };
+    if after_rejection {
+        f.min(1.0)
+    } else {
+        f
+    }
+}

@@ -75,7 +75,8 @@ fn tracking_does_not_allocate() {
     assert_eq!(v.len(), 16);
     assert!(n >= 1, "counting allocator is not armed");
 
-    let options = [TrackerOptions::default(), TrackerOptions::paper(0.05)];
+    let options =
+        [TrackerOptions::default(), TrackerOptions::paper(0.05), TrackerOptions::single_path()];
 
     // Square system, real, parameter homotopy.
     let mut rng = rng(700);
@@ -160,4 +161,10 @@ fn tracking_does_not_allocate() {
     let (r, n) = counted(|| track(&fold, &Vector1::new(-(3.0f64.sqrt())), &TrackerOptions::default()));
     assert!(matches!(r, Err(TrackError::StepSizeTooSmall { .. })));
     assert_eq!(n, 0, "failing path: {n} allocations");
+    // Drag steps over the fold.
+    let (r, n) = counted(|| {
+        track(&fold, &Vector1::new(-(3.0f64.sqrt())), &TrackerOptions::single_path()).map(|r| r.stats)
+    });
+    assert!(r.map_or(true, |s| s.drag_steps > 0));
+    assert_eq!(n, 0, "drag steps: {n} allocations");
 }

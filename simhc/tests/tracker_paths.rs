@@ -7,7 +7,8 @@ mod tracker_support;
 use nalgebra::{SVector, Vector1, Vector2};
 use simhc::homotopy::{FixedSystem, Homotopy, ParameterHomotopy, SquaredUp, StraightLine};
 use simhc::tracker::{
-    newton, track, NewtonOptions, Predictor, TrackResult, Tracker, TrackerOptions, TrackerStatus,
+    newton, solve_newton, track, NewtonOptions, Predictor, TrackResult, Tracker, TrackerOptions,
+    TrackerStatus,
 };
 use tracker_support::*;
 
@@ -18,6 +19,7 @@ fn all_options() -> Vec<(&'static str, TrackerOptions)> {
         ("paper dt=0.05", TrackerOptions::paper(0.05)),
         ("paper dt=0.02", TrackerOptions::paper(0.02)),
         ("adaptive heun", TrackerOptions { predictor: Predictor::Heun, ..Default::default() }),
+        ("single path", TrackerOptions::single_path()),
     ]
 }
 
@@ -310,4 +312,8 @@ fn plain_newton_and_gauss_newton() {
     assert!(r.converged);
     assert_close("gauss-newton", &r.x, &want);
     assert!(r.residual < 1e-12);
+    // The same through the Problem-level entry point.
+    let x0 = want + Vector2::new(0.03, -0.02);
+    let r2 = solve_newton::<Over3x2, f64, 2, 3, O_NP>(&x0, &q, &NewtonOptions::default()).unwrap();
+    assert_eq!(r2.x, r.x);
 }

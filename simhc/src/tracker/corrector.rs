@@ -268,3 +268,19 @@ where
         residual,
     })
 }
+
+/// Plain (Gauss-)Newton on `F(x; p) = 0` directly: [`newton`] on
+/// [`crate::homotopy::FixedSystem`]. This is the "Gauss-Newton only" baseline (refine the
+/// predicted start on the target, no homotopy); call it as
+/// `solve_newton::<MyProblem, f64, NX, NF, NP>(&x0, &p, &options)`.
+pub fn solve_newton<P, S, const NX: usize, const NF: usize, const NP: usize>(
+    x0: &SVector<S, NX>,
+    p: &SVector<S, NP>,
+    options: &NewtonOptions,
+) -> Result<NewtonResult<S, NX>, TrackError>
+where
+    P: crate::Problem<NX, NF, NP>,
+    S: Scalar,
+{
+    newton::<S, _, NX, NF>(&crate::homotopy::FixedSystem::<P, S, NP>::new(*p), x0, 1.0, options)
+}

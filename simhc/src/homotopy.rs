@@ -26,7 +26,7 @@
 //!   [`Homotopy::validation_residual`] of the wrapper reports the *full* system.
 //! - [`FixedSystem`]: `H(x, t) = F(x; p)`, constant in `t`; the target for plain (Gauss-)Newton.
 
-use crate::{ParamDerivative, Problem, Scalar};
+use crate::{CoefficientForm, ParamDerivative, Problem, Scalar};
 use nalgebra::{SMatrix, SVector};
 use num_complex::Complex;
 use rand::{Rng, SeedableRng};
@@ -183,6 +183,83 @@ phantom_impls!([P, S: Scalar, const NP: usize], FixedSystem<P, S, NP>, "FixedSys
 // ---------------------------------------------------------------------------------------------
 // Straight line and gamma trick
 // ---------------------------------------------------------------------------------------------
+
+/// The paper's straight-line homotopy evaluated in coefficient space:
+/// `H(x, t) = Fc(x; c0 + t (c1 - c0)) = (1-t) F(x; p0) + t F(x; p1)`, with `c = c(p)` computed
+/// once at construction ([`CoefficientForm`]). Same path as [`StraightLine`] with `gamma = 1`,
+/// at the cost of one coefficient-form evaluation per step instead of two full ones.
+pub struct CoefficientLine<P, S: Scalar, const NP: usize, const NC: usize> {
+    /// Start coefficients `c(p0)`.
+    pub c0: SVector<S, NC>,
+    /// `c(p1) - c(p0)`.
+    pub dc: SVector<S, NC>,
+    problem: PhantomData<fn() -> P>,
+}
+
+impl<P, S: Scalar, const NP: usize, const NC: usize> CoefficientLine<P, S, NP, NC> {
+    /// The line from `F(.; p0)` to `F(.; p1)`.
+    pub fn new<const NX: usize, const NF: usize>(
+        p0: &SVector<S, NP>,
+        p1: &SVector<S, NP>,
+    ) -> Self
+    where
+        P: CoefficientForm<NX, NF, NP, NC>,
+    {
+        let mut c0 = SVector::<S, NC>::zeros();
+        let mut c1 = SVector::<S, NC>::zeros();
+        P::coefficients(p0, &mut c0);
+        P::coefficients(p1, &mut c1);
+        Self { c0, dc: c1 - c0, problem: PhantomData }
+    }
+
+    #[inline]
+    fn at(&self, t: f64) -> SVector<S, NC> {
+        let mut c = self.dc * S::from_real(t);
+        c += self.c0;
+        c
+    }
+}
+
+impl<P, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize> Homotopy<S, NX, NF>
+    for CoefficientLine<P, S, NP, NC>
+where
+    P: CoefficientForm<NX, NF, NP, NC>,
+    S: Scalar,
+{
+    #[inline]
+    fn evaluate(
+        &self,
+        x: &SVector<S, NX>,
+        t: f64,
+        h: &mut SVector<S, NF>,
+        jx: &mut SMatrix<S, NF, NX>,
+    ) {
+        P::residual_jacobian_coeffs(x, &self.at(t), h, jx);
+    }
+
+    #[inline]
+    fn dt(&self, x: &SVector<S, NX>, _t: f64, dh: &mut SVector<S, NF>) {
+        P::coefficient_part(x, &self.dc, dh);
+    }
+
+    #[inline]
+    fn residual(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>) {
+        P::residual_coeffs(x, &self.at(t), h);
+    }
+
+    #[inline]
+    fn jacobian_dt(
+        &self,
+        x: &SVector<S, NX>,
+        t: f64,
+        jx: &mut SMatrix<S, NF, NX>,
+        dh: &mut SVector<S, NF>,
+    ) {
+        let mut h = SVector::<S, NF>::zeros();
+        P::residual_jacobian_coeffs(x, &self.at(t), &mut h, jx);
+        P::coefficient_part(x, &self.dc, dh);
+    }
+}
 
 /// The paper's straight-line homotopy within one problem family,
 /// `H(x, t) = gamma (1-t) F(x; p0) + t F(x; p1)`, `gamma = 1` unless set.
@@ -601,7 +678,7 @@ impl<S: Scalar, H, const NX: usize, const NF: usize> SquaredUp<S, H, NX, NF> {
                 }
             }
         }
-        Self { inner, a: a.map(<S as Scalar>::from_f64) }
+        Self { inner, a: a.map(S::from_real) }
     }
 
     /// Squares `inner` with a given combination matrix.

@@ -52,3 +52,28 @@ pub trait ParamDerivative<const NX: usize, const NF: usize, const NP: usize>:
         out: &mut SVector<S, NF>,
     );
 }
+
+/// The system written as linear in a vector of `NC` coefficients that depend on the parameters
+/// only: `F(x; p) = Fc(x; c(p))` with `Fc` affine in `c`.
+///
+/// The paper's straight-line homotopy `(1-t) F(x; p0) + t F(x; p1)` is then
+/// `Fc(x; c0 + t (c1 - c0))`: one evaluation per step instead of two, and the coefficients are
+/// computed once per path ([`crate::homotopy::CoefficientLine`]).
+pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, const NC: usize>:
+    Problem<NX, NF, NP>
+{
+    /// `c(p)`.
+    fn coefficients<S: Scalar>(p: &SVector<S, NP>, c: &mut SVector<S, NC>);
+    /// `Fc(x; c)` and `dFc/dx (x; c)`.
+    fn residual_jacobian_coeffs<S: Scalar>(
+        x: &SVector<S, NX>,
+        c: &SVector<S, NC>,
+        f: &mut SVector<S, NF>,
+        j: &mut SMatrix<S, NF, NX>,
+    );
+    /// `Fc(x; c)`.
+    fn residual_coeffs<S: Scalar>(x: &SVector<S, NX>, c: &SVector<S, NC>, f: &mut SVector<S, NF>);
+    /// The part of `Fc` linear in the coefficients, evaluated at `dc`: `dFc/dc (x) * dc`, which
+    /// is `dH/dt` of the coefficient line with `dc = c1 - c0`.
+    fn coefficient_part<S: Scalar>(x: &SVector<S, NX>, dc: &SVector<S, NC>, out: &mut SVector<S, NF>);
+}

@@ -6,20 +6,15 @@ use num_complex::Complex;
 /// A field element that generated residuals and Jacobians are evaluated in.
 ///
 /// Implemented for `f64` (real single-path tracking) and `Complex<f64>` (all-roots tracking and
-/// complex detours). Everything the generated code needs is arithmetic plus [`Scalar::from_f64`];
-/// the tracker additionally uses nalgebra's `ComplexField` for linear solves and norms.
+/// complex detours). Generated code needs arithmetic plus `S::from_real(c)` (from nalgebra's
+/// `ComplexField`, with `RealField = f64`) to embed real constants; the tracker additionally uses
+/// `ComplexField` for norms.
 pub trait Scalar: ComplexField<RealField = f64> + Copy {
-    /// Embeds a real constant.
-    fn from_f64(v: f64) -> Self;
     /// Whether every component is finite (no NaN, no infinity).
     fn is_finite_value(self) -> bool;
 }
 
 impl Scalar for f64 {
-    #[inline(always)]
-    fn from_f64(v: f64) -> Self {
-        v
-    }
     #[inline(always)]
     fn is_finite_value(self) -> bool {
         self.is_finite()
@@ -27,10 +22,6 @@ impl Scalar for f64 {
 }
 
 impl Scalar for Complex<f64> {
-    #[inline(always)]
-    fn from_f64(v: f64) -> Self {
-        Complex::new(v, 0.0)
-    }
     #[inline(always)]
     fn is_finite_value(self) -> bool {
         self.re.is_finite() && self.im.is_finite()

@@ -25,6 +25,8 @@ pub enum Node {
     P(u32),
     /// Parameter direction `dp[i]` (for `dF/dp * dp`).
     Dp(u32),
+    /// Coefficient `c[i]` of the coefficient form.
+    C(u32),
     /// A real constant (bit pattern, so nodes hash).
     Const(u64),
     /// Sum.
@@ -80,10 +82,13 @@ impl Dag {
     }
 
     fn var(&mut self, v: Var, vars: &VarTable) -> NodeId {
-        if vars.is_unknown(v) {
+        let (nx, np) = (vars.nx() as u32, vars.np() as u32);
+        if v < nx {
             self.intern(Node::X(v))
+        } else if v < nx + np {
+            self.intern(Node::P(v - nx))
         } else {
-            self.intern(Node::P(v - vars.nx() as u32))
+            self.intern(Node::C(v - nx - np))
         }
     }
 
@@ -241,7 +246,10 @@ impl Dag {
         }
     }
 
-    /// Builds a polynomial grouped by monomials in the unknowns (kept for comparison).
+    /// Builds a polynomial as a sum over monomials in the unknowns, each monomial built once
+    /// through a prefix tree and shared by every polynomial of the DAG. This is the cheaper form
+    /// when the coefficients are single leaves (the coefficient form), where Horner would
+    /// rebuild the shared monomials inside every equation.
     pub fn polynomial_grouped(&mut self, poly: &Poly, vars: &VarTable) -> NodeId {
         let mut groups: BTreeMap<Monomial, Poly> = BTreeMap::new();
         for (m, &c) in &poly.terms {

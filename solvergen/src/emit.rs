@@ -65,6 +65,7 @@ impl Renderer<'_> {
             Node::X(i) => Some(format_ident!("x_{}", sanitize(&self.vars.unknown_names[*i as usize]))),
             Node::P(i) => Some(format_ident!("p_{}", sanitize(&self.vars.param_names[*i as usize]))),
             Node::Dp(i) => Some(format_ident!("dp_{}", sanitize(&self.vars.param_names[*i as usize]))),
+            Node::C(i) => Some(format_ident!("cf_{}", i)),
             _ => None,
         }
     }
@@ -75,7 +76,7 @@ impl Renderer<'_> {
             return quote!(#ident);
         }
         let ident = match node {
-            Node::Const(_) => format_ident!("c{}", id.0),
+            Node::Const(_) => format_ident!("k{}", id.0),
             _ => format_ident!("t{}", id.0),
         };
         quote!(#ident)
@@ -92,21 +93,22 @@ impl Renderer<'_> {
             }
             let id = NodeId(i as u32);
             match node {
-                Node::X(k) | Node::P(k) | Node::Dp(k) => {
+                Node::X(k) | Node::P(k) | Node::Dp(k) | Node::C(k) => {
                     let ident = self.leaf_ident(node);
                     let k = n(*k as usize);
                     let src = match node {
                         Node::X(_) => quote!(x[#k]),
                         Node::P(_) => quote!(p[#k]),
+                        Node::C(_) => quote!(c[#k]),
                         _ => quote!(dp[#k]),
                     };
                     loads.push(quote!(let #ident = #src;));
                 }
                 Node::Const(bits) => {
-                    // Hoisted once per function; the qualified path avoids num-traits' from_f64.
+                    // Hoisted once per function.
                     let lit = f64_lit(f64::from_bits(*bits));
-                    let c = format_ident!("c{}", id.0);
-                    loads.push(quote!(let #c: S = <S as ::simhc::Scalar>::from_f64(#lit);));
+                    let c = format_ident!("k{}", id.0);
+                    loads.push(quote!(let #c: S = S::from_real(#lit);));
                 }
                 Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
                     let (a, b) = (self.name(*a), self.name(*b));
@@ -141,7 +143,7 @@ fn assign_dense(r: &Renderer<'_>, target: TokenStream, entries: &[(TokenStream, 
         let v = r.name(*id);
         stmts.push(quote!(#target[#idx] = #v;));
     }
-    let fill = if zero { quote!(#target.fill(<S as ::simhc::Scalar>::from_f64(0.0));) } else { quote!() };
+    let fill = if zero { quote!(#target.fill(S::from_real(0.0));) } else { quote!() };
     quote!(#fill #(#stmts)*)
 }
 
@@ -369,6 +371,10 @@ fn instance(decl: &Declaration, inst: &Instance) -> TokenStream {
     let dir = derivs.param_directional(&mut dag);
     let param_directional = render(&dag, inst, &[(quote!(out), &dir)]);
 
+    let split = crate::lower::split_coefficients(inst);
+    let nc = n(split.table.len());
+    let coefficient_form = coefficient_form(inst, &split, &type_name);
+
     // Packing helpers: rows then globals.
     let row_len_v: usize = decl.row_fields.iter().map(|f| f.shape.scalar_count()).sum();
     let row_len = n(row_len_v);
@@ -429,6 +435,8 @@ fn instance(decl: &Declaration, inst: &Instance) -> TokenStream {
             pub const NP: usize = #np;
             /// Number of rows (correspondences).
             pub const ROWS: usize = #n_rows;
+            /// Number of coefficients of the coefficient form.
+            pub const NC: usize = #nc;
             /// Packs the parameter vector: rows in order, then globals.
             pub fn params(#(#args),*) -> #sv<f64, #np> {
                 let mut p = #sv::<f64, #np>::zeros();
@@ -487,11 +495,101 @@ fn instance(decl: &Declaration, inst: &Instance) -> TokenStream {
         }
 
         #simulator
+
+        #coefficient_form
+    }
+}
+
+/// `impl CoefficientForm`: coefficients from parameters, and the system over coefficients.
+fn coefficient_form(inst: &Instance, split: &crate::lower::CoefficientSplit, type_name: &Ident) -> TokenStream {
+    let (nx, nf, np, nc) = (n(inst.vars.nx()), n(inst.equations.len()), n(inst.vars.np()), n(split.table.len()));
+    let sv = quote!(::simhc::__private::nalgebra::SVector);
+    let sm = quote!(::simhc::__private::nalgebra::SMatrix);
+    let vars = &split.vars;
+
+    let mut dag = Dag::default();
+    let entries: Vec<(TokenStream, NodeId)> = split
+        .table
+        .iter()
+        .enumerate()
+        .map(|(k, poly)| {
+            let k = n(k);
+            (quote!(#k), dag.polynomial(poly, vars))
+        })
+        .collect();
+    let coefficients = render_with(&dag, vars, &[(quote!(c), &entries)]);
+
+    let residual_of = |dag: &mut Dag, polys: &[crate::poly::Poly]| -> Vec<(TokenStream, NodeId)> {
+        polys
+            .iter()
+            .enumerate()
+            .map(|(i, f)| {
+                let i = n(i);
+                (quote!(#i), dag.polynomial_grouped(f, vars))
+            })
+            .collect()
+    };
+    let jacobian_of = |dag: &mut Dag| -> Vec<(TokenStream, NodeId)> {
+        let mut out = Vec::new();
+        for (i, f) in split.equations.iter().enumerate() {
+            for k in 0..inst.vars.nx() {
+                let d = f.diff(k as Var);
+                let (i, k) = (n(i), n(k));
+                out.push((quote!((#i, #k)), dag.polynomial_grouped(&d, vars)));
+            }
+        }
+        out
+    };
+
+    let mut dag = Dag::default();
+    let f = residual_of(&mut dag, &split.equations);
+    let j = jacobian_of(&mut dag);
+    let fused = render_with(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]);
+
+    let mut dag = Dag::default();
+    let f = residual_of(&mut dag, &split.equations);
+    let residual = render_with(&dag, vars, &[(quote!(f), &f)]);
+
+    let mut dag = Dag::default();
+    let lin = residual_of(&mut dag, &split.linear);
+    // The linear part reads its coefficients from `dc`.
+    let linear = render_with(&dag, vars, &[(quote!(out), &lin)]);
+
+    quote! {
+        #[allow(clippy::all, unused_variables)]
+        impl ::simhc::CoefficientForm<#nx, #nf, #np, #nc> for #type_name {
+            #[inline]
+            fn coefficients<S: ::simhc::Scalar>(p: &#sv<S, #np>, c: &mut #sv<S, #nc>) {
+                #coefficients
+            }
+            #[inline]
+            fn residual_jacobian_coeffs<S: ::simhc::Scalar>(
+                x: &#sv<S, #nx>,
+                c: &#sv<S, #nc>,
+                f: &mut #sv<S, #nf>,
+                j: &mut #sm<S, #nf, #nx>,
+            ) {
+                #fused
+            }
+            #[inline]
+            fn residual_coeffs<S: ::simhc::Scalar>(x: &#sv<S, #nx>, c: &#sv<S, #nc>, f: &mut #sv<S, #nf>) {
+                #residual
+            }
+            #[inline]
+            fn coefficient_part<S: ::simhc::Scalar>(x: &#sv<S, #nx>, dc: &#sv<S, #nc>, out: &mut #sv<S, #nf>) {
+                let c = dc;
+                #linear
+            }
+        }
     }
 }
 
 fn render(dag: &Dag, inst: &Instance, outputs: &[(TokenStream, &Vec<(TokenStream, NodeId)>)]) -> TokenStream {
-    let r = Renderer { dag, vars: &inst.vars };
+    render_with(dag, &inst.vars, outputs)
+}
+
+fn render_with(dag: &Dag, vars: &VarTable, outputs: &[(TokenStream, &Vec<(TokenStream, NodeId)>)]) -> TokenStream {
+    let r = Renderer { dag, vars };
     let ids: Vec<NodeId> = outputs.iter().flat_map(|(_, v)| v.iter().map(|(_, id)| *id)).collect();
     let body = r.body(&ids);
     let assigns = outputs.iter().map(|(target, entries)| assign_dense(&r, target.clone(), entries));

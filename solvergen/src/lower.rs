@@ -77,6 +77,9 @@ pub struct VarTable {
     pub unknown_names: Vec<String>,
     /// `row0.f[0]`, ..., `m[0][1]`, in vector order.
     pub param_names: Vec<String>,
+    /// Number of coefficient variables (the coefficient form only), numbered after the
+    /// parameters.
+    pub coefficients: usize,
 }
 
 impl VarTable {
@@ -91,6 +94,10 @@ impl VarTable {
     /// Whether variable `v` is an unknown.
     pub fn is_unknown(&self, v: Var) -> bool {
         (v as usize) < self.nx()
+    }
+    /// Whether variable `v` is a parameter.
+    pub fn is_param(&self, v: Var) -> bool {
+        (self.nx()..self.nx() + self.np()).contains(&(v as usize))
     }
 }
 
@@ -200,7 +207,13 @@ fn lower_with(mut cx: Option<&mut Ctxt>, decl: &Declaration, rows: usize) -> Ins
         global_eqs = g.len();
         equations.extend(g);
     }
-    Instance { rows, vars: VarTable { unknown_names, param_names }, equations, eqs_per_row, global_eqs }
+    Instance {
+        rows,
+        vars: VarTable { unknown_names, param_names, coefficients: 0 },
+        equations,
+        eqs_per_row,
+        global_eqs,
+    }
 }
 
 struct Evaluator<'a, 'c> {
@@ -552,4 +565,60 @@ fn const_of(v: &Value) -> Option<f64> {
         Value::Scalar(p) => p.as_constant(),
         _ => None,
     }
+}
+
+/// The coefficient form of an instance: `F(x; p) = Fc(x; c(p))`, `Fc` affine in `c`.
+#[derive(Clone, Debug)]
+pub struct CoefficientSplit {
+    /// `c_k(p)`, each normalised to a leading coefficient of one; variables are parameters.
+    pub table: Vec<Poly>,
+    /// `Fc(x; c)` over unknowns and coefficient variables (numbered after the parameters).
+    pub equations: Vec<Poly>,
+    /// The part of `Fc` linear in `c` (constant-coefficient terms removed).
+    pub linear: Vec<Poly>,
+    /// Variables, with `coefficients` set.
+    pub vars: VarTable,
+}
+
+/// Groups every equation by monomials in the unknowns; each non-constant group coefficient
+/// (a polynomial in the parameters) becomes a coefficient variable, shared when two groups
+/// have proportional coefficients.
+pub fn split_coefficients(inst: &Instance) -> CoefficientSplit {
+    use crate::poly::Monomial;
+    use std::collections::{BTreeMap, HashMap};
+    let base = (inst.vars.nx() + inst.vars.np()) as Var;
+    let mut table: Vec<Poly> = Vec::new();
+    let mut index: HashMap<Vec<(Monomial, u64)>, usize> = HashMap::new();
+    let mut equations = Vec::new();
+    let mut linear = Vec::new();
+    for f in &inst.equations {
+        let mut groups: BTreeMap<Monomial, Poly> = BTreeMap::new();
+        for (m, &c) in &f.terms {
+            let (xm, pm) = m.split(|v| inst.vars.is_unknown(v));
+            groups.entry(xm).or_default().add_term(pm, c);
+        }
+        let mut eq = Poly::zero();
+        let mut lin = Poly::zero();
+        for (xm, coef) in groups {
+            if let Some(c) = coef.as_constant() {
+                eq.add_term(xm, c);
+                continue;
+            }
+            let lead = coef.terms.values().next().copied().unwrap_or(1.0);
+            let normalised = coef.scale(1.0 / lead);
+            let key: Vec<(Monomial, u64)> = normalised.terms.iter().map(|(m, &c)| (m.clone(), c.to_bits())).collect();
+            let k = *index.entry(key).or_insert_with(|| {
+                table.push(normalised);
+                table.len() - 1
+            });
+            let term = xm.mul(&Monomial::var(base + k as Var));
+            eq.add_term(term.clone(), lead);
+            lin.add_term(term, lead);
+        }
+        equations.push(eq);
+        linear.push(lin);
+    }
+    let mut vars = inst.vars.clone();
+    vars.coefficients = table.len();
+    CoefficientSplit { table, equations, linear, vars }
 }

@@ -7,7 +7,7 @@ use num_complex::Complex;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use simhc::{ParamDerivative, Scalar};
+use simhc::{CoefficientForm, ParamDerivative, Scalar};
 use simhc_problems::{grps, upnp};
 
 #[simhc::simhc_problem]
@@ -182,6 +182,42 @@ where
     }
 }
 
+/// The coefficient form reproduces the system, and its linear part is the straight line's
+/// `dH/dt = F(x; p1) - F(x; p0)`.
+fn check_coefficients<P, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize>(seed: u64, complex: bool)
+where
+    P: CoefficientForm<NX, NF, NP, NC>,
+    S: Scalar,
+{
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
+    let x: SVector<S, NX> = random_vec(&mut rng, complex);
+    let p0: SVector<S, NP> = random_vec(&mut rng, complex);
+    let p1: SVector<S, NP> = random_vec(&mut rng, complex);
+    let (mut c0, mut c1) = (SVector::<S, NC>::zeros(), SVector::<S, NC>::zeros());
+    P::coefficients(&p0, &mut c0);
+    P::coefficients(&p1, &mut c1);
+    let (mut f, mut fc, mut fc2) = (SVector::<S, NF>::zeros(), SVector::<S, NF>::zeros(), SVector::<S, NF>::zeros());
+    let (mut j, mut jc) = (SMatrix::<S, NF, NX>::zeros(), SMatrix::<S, NF, NX>::zeros());
+    P::residual_jacobian(&x, &p0, &mut f, &mut j);
+    P::residual_jacobian_coeffs(&x, &c0, &mut fc, &mut jc);
+    P::residual_coeffs(&x, &c0, &mut fc2);
+    let (fs, js) = (f.camax(), j.camax());
+    for i in 0..NF {
+        assert!(close(f[i], fc[i], 1e-11, fs) && close(f[i], fc2[i], 1e-11, fs), "{}: Fc differs from F, seed {seed}", P::NAME);
+    }
+    for k in 0..NF * NX {
+        assert!(close(j[k], jc[k], 1e-11, js), "{}: Jc differs from J, seed {seed}", P::NAME);
+    }
+    let mut f1 = SVector::<S, NF>::zeros();
+    P::residual(&x, &p1, &mut f1);
+    let mut part = SVector::<S, NF>::zeros();
+    P::coefficient_part(&x, &(c1 - c0), &mut part);
+    let expected = f1 - f;
+    for i in 0..NF {
+        assert!(close(part[i], expected[i], 1e-11, expected.camax()), "{}: linear part differs, seed {seed}", P::NAME);
+    }
+}
+
 fn check_both<P, const NX: usize, const NF: usize, const NP: usize>(seed: u64)
 where
     P: ParamDerivative<NX, NF, NP>,
@@ -190,12 +226,21 @@ where
     check::<P, Complex<f64>, NX, NF, NP>(seed, true);
 }
 
+fn check_coefficients_both<P, const NX: usize, const NF: usize, const NP: usize, const NC: usize>(seed: u64)
+where
+    P: CoefficientForm<NX, NF, NP, NC>,
+{
+    check_coefficients::<P, f64, NX, NF, NP, NC>(seed, false);
+    check_coefficients::<P, Complex<f64>, NX, NF, NP, NC>(seed, true);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
 
     #[test]
     fn circle_line_derivatives(seed in any::<u64>()) {
         check_both::<circle_line::CircleLine, 2, 2, 6>(seed);
+        check_coefficients_both::<circle_line::CircleLine, 2, 2, 6, 6>(seed);
     }
 
     #[test]
@@ -206,6 +251,7 @@ proptest! {
     #[test]
     fn kitchen_sink_derivatives(seed in any::<u64>()) {
         check_both::<kitchen_sink::KitchenSink3, 5, 5, 27>(seed);
+        check_coefficients_both::<kitchen_sink::KitchenSink3, 5, 5, 27, 63>(seed);
         check_both::<kitchen_sink::KitchenSink4, 5, 6, 31>(seed);
     }
 
@@ -213,11 +259,14 @@ proptest! {
     fn grps_derivatives(seed in any::<u64>()) {
         check_both::<grps::Grps7, 8, 8, 84>(seed);
         check_both::<grps::Grps8, 8, 9, 96>(seed);
+        check_coefficients_both::<grps::Grps7, 8, 8, 84, 266>(seed);
+        check_coefficients_both::<grps::Grps8, 8, 9, 96, 304>(seed);
     }
 
     #[test]
     fn upnp_derivatives(seed in any::<u64>()) {
         check_both::<upnp::Upnp, 4, 5, 66>(seed);
+        check_coefficients_both::<upnp::Upnp, 4, 5, 66, 35>(seed);
     }
 }
 

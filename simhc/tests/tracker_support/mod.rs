@@ -7,10 +7,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::{ParamDerivative, Problem, ProblemInfo, Scalar};
 
-/// A real constant in `S` (fully qualified: `from_f64` also exists on num-traits' FromPrimitive).
+/// A real constant in `S`.
 #[inline]
 pub fn k<S: Scalar>(v: f64) -> S {
-    <S as Scalar>::from_f64(v)
+    S::from_real(v)
 }
 
 pub fn rng(seed: u64) -> ChaCha8Rng {

@@ -8,6 +8,7 @@
 
 pub mod homotopy;
 pub mod problem;
+pub mod regressor;
 pub mod scalar;
 pub mod simulator;
 pub mod tracker;

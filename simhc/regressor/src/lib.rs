@@ -1,0 +1,25 @@
+//! Pose regression network for Simulator HC (paper section "Find a Good Starting Solution:
+//! Regression Network"), trained with burn on simulated scenes.
+//!
+//! - [`model`]: the PointNet-style network (per-correspondence dense layers = 1D convolutions
+//!   with kernel size 1, batch norm, ReLU, max-pool, fully connected head, unit quaternion);
+//! - [`data`]: a generic in-memory data set built from a sample function;
+//! - [`training`]: a small Adam loop with a sign-invariant quaternion loss and rotation-error
+//!   validation;
+//! - [`inference`]: the shipped weights, batch-1 and batched prediction, and the export to the
+//!   runtime's allocation-free [`simhc::regressor::FoldedNetwork`];
+//! - [`upnp`]: UPnP training data and [`upnp::train_upnp`].
+//!
+//! Train the shipped weights with
+//! `cargo run --release -p simhc-regressor --example train_upnp`.
+
+pub mod data;
+pub mod inference;
+pub mod model;
+pub mod training;
+pub mod upnp;
+
+pub use inference::{export_folded, fold, load_bpk_bytes, predict, predict_batch};
+pub use model::{PoseRegressor, RegressorConfig};
+pub use training::{RotationStats, TrainConfig, TrainReport};
+pub use upnp::{train_upnp, UpnpTrainConfig, UpnpTrained};

@@ -1,0 +1,770 @@
+//! Allocation-free forward pass of a trained pose regressor, independent of any deep learning
+//! framework.
+//!
+//! The network (trained with burn in the `simhc-regressor` crate) is a PointNet-style regressor:
+//!
+//! ```text
+//! rows [N x C]  --(point layers: dense + ReLU, applied to every row)-->  [N x W]
+//!               --(max over the N rows)-->                               [W]
+//!               --(head layers: dense, ReLU between them, none last)-->  [K]
+//!               --(optional: divide by the Euclidean norm)-->            [K]
+//! ```
+//!
+//! The point layers are the paper's 1D convolutions with kernel size 1, each followed by batch
+//! norm and ReLU; here the batch norm (in inference mode, running statistics) is folded into the
+//! preceding dense layer: `W' = W diag(s)`, `b' = (b - mean) s + beta` with
+//! `s = gamma / sqrt(var + eps)`.
+//!
+//! # Binary format ([`FoldedNetwork::from_bytes`], [`FoldedNetwork::to_bytes`])
+//!
+//! All integers are `u32` and all numbers `f32`, little-endian:
+//!
+//! ```text
+//! magic        8 bytes  b"SHCFOLD1"
+//! input_width  u32      C, the width of one input row
+//! point_layers u32      number of point layers (>= 1)
+//! head_layers  u32      number of head layers (>= 1)
+//! flags        u32      bit 0: normalize the output to unit Euclidean norm; other bits 0
+//! then for every layer, point layers first, then head layers:
+//!   inputs     u32
+//!   outputs    u32
+//!   weights    inputs * outputs f32, row-major [inputs][outputs]: y_j = b_j + sum_i x_i w[i][j]
+//!   bias       outputs f32
+//! ```
+//!
+//! Each layer's `inputs` must equal the previous layer's `outputs` (the first point layer's the
+//! input width, the first head layer's the last point layer's), every width is at most
+//! [`MAX_WIDTH`], and nothing may follow the last layer.
+//!
+//! # Input rows for UPnP ([`upnp_rows`])
+//!
+//! The UPnP regressor reads one row `[p~, f~, v~]` (9 numbers) per correspondence
+//! `(p, f, v)`; the exact normalization is documented at [`upnp_rows`] and is shared by training
+//! (the `simhc-regressor` crate calls the same function) and inference. The shipped UPnP
+//! weights are `problems/weights/upnp.folded`; at inference:
+//!
+//! ```text
+//! let net = FoldedNetwork::from_bytes(include_bytes!(".../upnp.folded"))?;   // once
+//! let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * n];                          // once per size
+//! upnp_rows(n, |i| (p[i], f[i], v[i]), &mut rows)?;                         // per solve
+//! let mut q = [0.0f64; 4];
+//! net.forward(&rows, &mut q)?;                     // unit quaternion [w, x, y, z], sign free
+//! ```
+
+use thiserror::Error;
+
+/// Largest layer width (and input width) the forward pass supports: activations live in
+/// fixed-size stack buffers of this many `f32` per row.
+pub const MAX_WIDTH: usize = 256;
+
+/// Rows processed together by the point layers (weights are loaded once per block).
+const ROW_BLOCK: usize = 4;
+
+/// Magic bytes at the start of the binary format.
+pub const FOLDED_MAGIC: &[u8; 8] = b"SHCFOLD1";
+
+/// Number of input numbers per correspondence of the UPnP regressor (see [`upnp_rows`]).
+pub const UPNP_ROW_WIDTH: usize = 9;
+
+/// Errors of loading or running a [`FoldedNetwork`].
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum RegressorError {
+    /// The byte buffer is not a valid folded network (see the module docs).
+    #[error("invalid folded network: {0}")]
+    Format(&'static str),
+    /// No input rows were given (the max-pool needs at least one).
+    #[error("no input rows")]
+    EmptyInput,
+    /// The input length is not a multiple of the row width.
+    #[error("input of length {len} is not a whole number of rows of width {width}")]
+    RowLength {
+        /// Length of the flat input slice.
+        len: usize,
+        /// Expected row width.
+        width: usize,
+    },
+    /// The output slice has the wrong length.
+    #[error("output slice of length {got}, expected {expected}")]
+    OutputLength {
+        /// Length the network produces.
+        expected: usize,
+        /// Length of the slice given.
+        got: usize,
+    },
+    /// An input value was NaN or infinite.
+    #[error("non-finite input value")]
+    NonFinite,
+}
+
+/// One dense layer `y = b + x W` with `W` stored row-major `[inputs][outputs]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DenseLayer {
+    inputs: usize,
+    outputs: usize,
+    weights: Vec<f32>,
+    bias: Vec<f32>,
+}
+
+impl DenseLayer {
+    /// A layer from its weights (`inputs * outputs`, row-major `[inputs][outputs]`) and bias
+    /// (`outputs`).
+    pub fn new(
+        inputs: usize,
+        outputs: usize,
+        weights: Vec<f32>,
+        bias: Vec<f32>,
+    ) -> Result<Self, RegressorError> {
+        if inputs == 0 || outputs == 0 || inputs > MAX_WIDTH || outputs > MAX_WIDTH {
+            return Err(RegressorError::Format(
+                "layer width zero or above MAX_WIDTH",
+            ));
+        }
+        if weights.len() != inputs * outputs || bias.len() != outputs {
+            return Err(RegressorError::Format(
+                "layer weight or bias length mismatch",
+            ));
+        }
+        if weights.iter().chain(&bias).any(|w| !w.is_finite()) {
+            return Err(RegressorError::Format("non-finite weight"));
+        }
+        Ok(Self {
+            inputs,
+            outputs,
+            weights,
+            bias,
+        })
+    }
+
+    /// Input width.
+    pub fn inputs(&self) -> usize {
+        self.inputs
+    }
+
+    /// Output width.
+    pub fn outputs(&self) -> usize {
+        self.outputs
+    }
+
+    /// Weights, row-major `[inputs][outputs]`.
+    pub fn weights(&self) -> &[f32] {
+        &self.weights
+    }
+
+    /// Bias, `outputs` values.
+    pub fn bias(&self) -> &[f32] {
+        &self.bias
+    }
+
+    /// `y = relu?(b + x W)` for one row.
+    #[inline(always)]
+    fn apply_row<const FMA: bool>(&self, x: &[f32], y: &mut [f32], relu: bool) {
+        let o = self.outputs;
+        let y = &mut y[..o];
+        y.copy_from_slice(&self.bias);
+        for (xi, w) in x[..self.inputs].iter().zip(self.weights.chunks_exact(o)) {
+            for (yj, wj) in y.iter_mut().zip(w) {
+                *yj = madd::<FMA>(*xi, *wj, *yj);
+            }
+        }
+        if relu {
+            for v in y.iter_mut() {
+                *v = v.max(0.0);
+            }
+        }
+    }
+
+    /// `y[r] = relu(b + x[r] W)` for a block of [`ROW_BLOCK`] rows, register-tiled over
+    /// `TILE` outputs x `ROW_BLOCK` rows so that every weight is loaded once per block.
+    #[inline(always)]
+    fn apply_block<const TILE: usize, const FMA: bool>(
+        &self,
+        x: &[[f32; MAX_WIDTH]; ROW_BLOCK],
+        y: &mut [[f32; MAX_WIDTH]; ROW_BLOCK],
+    ) {
+        let (n_in, o) = (self.inputs, self.outputs);
+        let tiled = o - o % TILE;
+        for j0 in (0..tiled).step_by(TILE) {
+            let mut bias = [0.0f32; TILE];
+            bias.copy_from_slice(&self.bias[j0..j0 + TILE]);
+            let mut acc = [bias; ROW_BLOCK];
+            for i in 0..n_in {
+                let mut w = [0.0f32; TILE];
+                w.copy_from_slice(&self.weights[i * o + j0..i * o + j0 + TILE]);
+                for r in 0..ROW_BLOCK {
+                    let xi = x[r][i];
+                    for k in 0..TILE {
+                        acc[r][k] = madd::<FMA>(xi, w[k], acc[r][k]);
+                    }
+                }
+            }
+            for r in 0..ROW_BLOCK {
+                for k in 0..TILE {
+                    y[r][j0 + k] = acc[r][k].max(0.0);
+                }
+            }
+        }
+        if tiled < o {
+            for r in 0..ROW_BLOCK {
+                for j in tiled..o {
+                    let mut s = self.bias[j];
+                    for i in 0..n_in {
+                        s = madd::<FMA>(x[r][i], self.weights[i * o + j], s);
+                    }
+                    y[r][j] = s.max(0.0);
+                }
+            }
+        }
+    }
+}
+
+/// `a * b + c`, fused (one rounding) when `FMA` (only used where the CPU has FMA; elsewhere
+/// `mul_add` would be a slow library call).
+#[inline(always)]
+fn madd<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
+    if FMA {
+        a.mul_add(b, c)
+    } else {
+        a * b + c
+    }
+}
+
+/// A trained regressor with batch norm folded into its dense layers (module docs), ready for an
+/// allocation-free [`forward`](Self::forward) at batch size 1.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FoldedNetwork {
+    input_width: usize,
+    point_layers: Vec<DenseLayer>,
+    head_layers: Vec<DenseLayer>,
+    normalize_output: bool,
+}
+
+impl FoldedNetwork {
+    /// A network from its layers; checks that the widths chain (module docs).
+    pub fn new(
+        input_width: usize,
+        point_layers: Vec<DenseLayer>,
+        head_layers: Vec<DenseLayer>,
+        normalize_output: bool,
+    ) -> Result<Self, RegressorError> {
+        if input_width == 0 || input_width > MAX_WIDTH {
+            return Err(RegressorError::Format(
+                "input width zero or above MAX_WIDTH",
+            ));
+        }
+        if point_layers.is_empty() || head_layers.is_empty() {
+            return Err(RegressorError::Format(
+                "need at least one point and one head layer",
+            ));
+        }
+        let mut width = input_width;
+        for layer in point_layers.iter().chain(&head_layers) {
+            if layer.inputs != width {
+                return Err(RegressorError::Format("layer widths do not chain"));
+            }
+            width = layer.outputs;
+        }
+        Ok(Self {
+            input_width,
+            point_layers,
+            head_layers,
+            normalize_output,
+        })
+    }
+
+    /// Parses the binary format of the module docs (for example an `include_bytes!` of a
+    /// shipped weights file). Allocates the weight vectors once.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, RegressorError> {
+        let mut reader = Reader { bytes, pos: 0 };
+        if reader.take(8)? != FOLDED_MAGIC {
+            return Err(RegressorError::Format("bad magic (expected SHCFOLD1)"));
+        }
+        let input_width = reader.u32()?;
+        let n_point = reader.u32()?;
+        let n_head = reader.u32()?;
+        let flags = reader.u32()?;
+        if flags & !1 != 0 {
+            return Err(RegressorError::Format("unknown flags"));
+        }
+        if n_point == 0 || n_head == 0 || n_point + n_head > 64 {
+            return Err(RegressorError::Format("bad layer count"));
+        }
+        let mut layers = Vec::with_capacity(n_point + n_head);
+        for _ in 0..n_point + n_head {
+            let inputs = reader.u32()?;
+            let outputs = reader.u32()?;
+            if inputs == 0 || outputs == 0 || inputs > MAX_WIDTH || outputs > MAX_WIDTH {
+                return Err(RegressorError::Format(
+                    "layer width zero or above MAX_WIDTH",
+                ));
+            }
+            let weights = reader.f32s(inputs * outputs)?;
+            let bias = reader.f32s(outputs)?;
+            layers.push(DenseLayer::new(inputs, outputs, weights, bias)?);
+        }
+        if reader.pos != bytes.len() {
+            return Err(RegressorError::Format("trailing bytes"));
+        }
+        let head_layers = layers.split_off(n_point);
+        Self::new(input_width, layers, head_layers, flags & 1 == 1)
+    }
+
+    /// Serializes to the binary format of the module docs.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        out.extend_from_slice(FOLDED_MAGIC);
+        for v in [
+            self.input_width,
+            self.point_layers.len(),
+            self.head_layers.len(),
+            usize::from(self.normalize_output),
+        ] {
+            out.extend_from_slice(&(v as u32).to_le_bytes());
+        }
+        for layer in self.point_layers.iter().chain(&self.head_layers) {
+            out.extend_from_slice(&(layer.inputs as u32).to_le_bytes());
+            out.extend_from_slice(&(layer.outputs as u32).to_le_bytes());
+            for v in layer.weights.iter().chain(&layer.bias) {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        out
+    }
+
+    /// Width of one input row.
+    pub fn input_width(&self) -> usize {
+        self.input_width
+    }
+
+    /// Number of outputs.
+    pub fn output_width(&self) -> usize {
+        self.head_layers.last().map_or(0, |l| l.outputs)
+    }
+
+    /// Whether the output is divided by its Euclidean norm (a unit quaternion for UPnP).
+    pub fn normalizes_output(&self) -> bool {
+        self.normalize_output
+    }
+
+    /// The point layers (batch norm folded in; each followed by ReLU).
+    pub fn point_layers(&self) -> &[DenseLayer] {
+        &self.point_layers
+    }
+
+    /// The head layers (ReLU between them, none after the last).
+    pub fn head_layers(&self) -> &[DenseLayer] {
+        &self.head_layers
+    }
+
+    /// Number of parameters (weights and biases).
+    pub fn num_params(&self) -> usize {
+        self.point_layers
+            .iter()
+            .chain(&self.head_layers)
+            .map(|l| l.weights.len() + l.bias.len())
+            .sum()
+    }
+
+    /// Runs the network on `rows` (flat, `N * input_width` numbers, row after row, `N >= 1`;
+    /// a `&[[f32; C]]` is passed as `rows.as_flattened()`) and writes the `output_width()`
+    /// outputs to `out`.
+    ///
+    /// No heap allocation: activations live in stack buffers of [`MAX_WIDTH`] floats (9 KiB
+    /// of stack). The rows are processed in blocks of four; a last partial block is padded by
+    /// repeating its last row, which the max-pool ignores. Arithmetic is in `f32` (fused
+    /// multiply-add with 256-bit vectors when the CPU has AVX2 and FMA, detected at run time;
+    /// a portable path otherwise), the output normalization in `f64`.
+    pub fn forward(&self, rows: &[f32], out: &mut [f64]) -> Result<(), RegressorError> {
+        let c = self.input_width;
+        if rows.is_empty() {
+            return Err(RegressorError::EmptyInput);
+        }
+        if rows.len() % c != 0 {
+            return Err(RegressorError::RowLength {
+                len: rows.len(),
+                width: c,
+            });
+        }
+        if out.len() != self.output_width() {
+            return Err(RegressorError::OutputLength {
+                expected: self.output_width(),
+                got: out.len(),
+            });
+        }
+        if rows.iter().any(|v| !v.is_finite()) {
+            return Err(RegressorError::NonFinite);
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: `forward_avx2_fma` only differs from the portable path in being compiled
+            // for AVX2 and FMA, which were detected on this CPU just above.
+            #[allow(unsafe_code)]
+            unsafe {
+                self.forward_avx2_fma(rows, out)
+            };
+            return Ok(());
+        }
+        self.forward_impl::<8, false>(rows, out);
+        Ok(())
+    }
+
+    /// [`Self::forward_impl`] compiled for AVX2 + FMA (16-wide tiles, fused multiply-add).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn forward_avx2_fma(&self, rows: &[f32], out: &mut [f64]) {
+        self.forward_impl::<16, true>(rows, out);
+    }
+
+    /// The forward pass on validated input (`rows` a non-empty whole number of rows, `out` of
+    /// the output width); `TILE` outputs per register tile, `FMA` fused multiply-add.
+    #[inline(always)]
+    fn forward_impl<const TILE: usize, const FMA: bool>(&self, rows: &[f32], out: &mut [f64]) {
+        let c = self.input_width;
+        let n = rows.len() / c;
+        let width = self.point_layers.last().map_or(0, |l| l.outputs);
+        let mut pooled = [f32::NEG_INFINITY; MAX_WIDTH];
+        let mut a = [[0.0f32; MAX_WIDTH]; ROW_BLOCK];
+        let mut b = [[0.0f32; MAX_WIDTH]; ROW_BLOCK];
+        for start in (0..n).step_by(ROW_BLOCK) {
+            for r in 0..ROW_BLOCK {
+                let row = (start + r).min(n - 1);
+                a[r][..c].copy_from_slice(&rows[row * c..(row + 1) * c]);
+            }
+            let mut in_a = true;
+            for layer in &self.point_layers {
+                if in_a {
+                    layer.apply_block::<TILE, FMA>(&a, &mut b);
+                } else {
+                    layer.apply_block::<TILE, FMA>(&b, &mut a);
+                }
+                in_a = !in_a;
+            }
+            let result = if in_a { &a } else { &b };
+            for row in result {
+                for (p, v) in pooled[..width].iter_mut().zip(&row[..width]) {
+                    *p = p.max(*v);
+                }
+            }
+        }
+        let (x, y) = (&mut a[0], &mut b[0]);
+        x[..width].copy_from_slice(&pooled[..width]);
+        let last = self.head_layers.len() - 1;
+        let mut in_x = true;
+        for (k, layer) in self.head_layers.iter().enumerate() {
+            if in_x {
+                layer.apply_row::<FMA>(&x[..], &mut y[..], k != last);
+            } else {
+                layer.apply_row::<FMA>(&y[..], &mut x[..], k != last);
+            }
+            in_x = !in_x;
+        }
+        let result = if in_x { &x[..] } else { &y[..] };
+        for (o, v) in out.iter_mut().zip(result) {
+            *o = f64::from(*v);
+        }
+        if self.normalize_output {
+            let norm = out.iter().map(|v| v * v).sum::<f64>().sqrt();
+            let norm = norm.max(1e-12);
+            for o in out.iter_mut() {
+                *o /= norm;
+            }
+        }
+    }
+}
+
+/// Little-endian reader over the binary format.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], RegressorError> {
+        let end = self.pos.checked_add(n).filter(|&e| e <= self.bytes.len());
+        let end = end.ok_or(RegressorError::Format("truncated"))?;
+        let s = &self.bytes[self.pos..end];
+        self.pos = end;
+        Ok(s)
+    }
+
+    fn u32(&mut self) -> Result<usize, RegressorError> {
+        let b = self.take(4)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    }
+
+    fn f32s(&mut self, n: usize) -> Result<Vec<f32>, RegressorError> {
+        let b = self.take(
+            n.checked_mul(4)
+                .ok_or(RegressorError::Format("truncated"))?,
+        )?;
+        Ok(b.chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect())
+    }
+}
+
+/// Writes the UPnP regressor's input rows for `n` correspondences `get(i) = (p_i, f_i, v_i)`
+/// (world point, bearing, ray origin; convention `alpha f + v = R p + t`) into `out`
+/// (`n * 9` numbers, row `i` at `out[9 i..9 i + 9]`). No allocation.
+///
+/// Row `i` is `[(p_i - p_mean) / s, f_i / |f_i|, (v_i - v_mean) / s]` with the means over the
+/// `n` correspondences and `s = sqrt(mean_i |p_i - p_mean|²)` (`s = 1` if that is zero).
+/// Centring `p` (a world-frame translation), centring `v` (a viewer-frame translation) and the
+/// common scale `s` (a similarity of both frames) leave the rotation `R` unchanged, so the
+/// rows carry exactly the information about `R` the raw correspondences do, at a fixed scale.
+/// Sums are in `f64`, the rows rounded to `f32` at the end.
+///
+/// Errors: [`RegressorError::EmptyInput`] for `n == 0`, [`RegressorError::OutputLength`] if
+/// `out.len() != 9 n`, [`RegressorError::NonFinite`] for a non-finite input or a zero bearing.
+pub fn upnp_rows<G>(n: usize, get: G, out: &mut [f32]) -> Result<(), RegressorError>
+where
+    G: Fn(usize) -> ([f64; 3], [f64; 3], [f64; 3]),
+{
+    if n == 0 {
+        return Err(RegressorError::EmptyInput);
+    }
+    if out.len() != UPNP_ROW_WIDTH * n {
+        return Err(RegressorError::OutputLength {
+            expected: UPNP_ROW_WIDTH * n,
+            got: out.len(),
+        });
+    }
+    let mut p_mean = [0.0f64; 3];
+    let mut v_mean = [0.0f64; 3];
+    for i in 0..n {
+        let (p, f, v) = get(i);
+        if p.iter().chain(&f).chain(&v).any(|x| !x.is_finite()) {
+            return Err(RegressorError::NonFinite);
+        }
+        for k in 0..3 {
+            p_mean[k] += p[k];
+            v_mean[k] += v[k];
+        }
+    }
+    let inv_n = 1.0 / n as f64;
+    for k in 0..3 {
+        p_mean[k] *= inv_n;
+        v_mean[k] *= inv_n;
+    }
+    let mut spread = 0.0;
+    for i in 0..n {
+        let (p, _, _) = get(i);
+        spread += (0..3).map(|k| (p[k] - p_mean[k]).powi(2)).sum::<f64>();
+    }
+    let s = (spread * inv_n).sqrt();
+    let inv_s = if s > 0.0 && s.is_finite() {
+        1.0 / s
+    } else {
+        1.0
+    };
+    for (i, row) in out.chunks_exact_mut(UPNP_ROW_WIDTH).enumerate() {
+        let (p, f, v) = get(i);
+        let f_norm = f.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if f_norm == 0.0 || !f_norm.is_finite() {
+            return Err(RegressorError::NonFinite);
+        }
+        for k in 0..3 {
+            row[k] = ((p[k] - p_mean[k]) * inv_s) as f32;
+            row[3 + k] = (f[k] / f_norm) as f32;
+            row[6 + k] = ((v[k] - v_mean[k]) * inv_s) as f32;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tiny() -> FoldedNetwork {
+        // 2 -> 3 (point) -> 2 (head)
+        let l1 = DenseLayer::new(
+            2,
+            3,
+            vec![1.0, -1.0, 0.5, 2.0, 0.0, -0.5],
+            vec![0.0, 0.1, 0.2],
+        )
+        .unwrap();
+        let h = DenseLayer::new(3, 2, vec![1.0, 0.0, 0.0, 1.0, 1.0, 1.0], vec![0.0, 0.0]).unwrap();
+        FoldedNetwork::new(2, vec![l1], vec![h], false).unwrap()
+    }
+
+    /// Reference forward pass written in the most direct way.
+    fn reference(net: &FoldedNetwork, rows: &[f32]) -> Vec<f64> {
+        let c = net.input_width();
+        let mut pooled: Option<Vec<f32>> = None;
+        for row in rows.chunks_exact(c) {
+            let mut x = row.to_vec();
+            for l in net.point_layers() {
+                x = (0..l.outputs())
+                    .map(|j| {
+                        let s: f32 = (0..l.inputs())
+                            .map(|i| x[i] * l.weights()[i * l.outputs() + j])
+                            .sum();
+                        (s + l.bias()[j]).max(0.0)
+                    })
+                    .collect();
+            }
+            pooled = Some(match pooled {
+                None => x,
+                Some(p) => p.iter().zip(&x).map(|(a, b)| a.max(*b)).collect(),
+            });
+        }
+        let mut x = pooled.unwrap();
+        let last = net.head_layers().len() - 1;
+        for (k, l) in net.head_layers().iter().enumerate() {
+            x = (0..l.outputs())
+                .map(|j| {
+                    let s: f32 = (0..l.inputs())
+                        .map(|i| x[i] * l.weights()[i * l.outputs() + j])
+                        .sum();
+                    let v = s + l.bias()[j];
+                    if k == last {
+                        v
+                    } else {
+                        v.max(0.0)
+                    }
+                })
+                .collect();
+        }
+        let mut out: Vec<f64> = x.iter().map(|v| f64::from(*v)).collect();
+        if net.normalizes_output() {
+            let n = out.iter().map(|v| v * v).sum::<f64>().sqrt();
+            out.iter_mut().for_each(|v| *v /= n);
+        }
+        out
+    }
+
+    #[test]
+    fn tiny_network_by_hand() {
+        let net = tiny();
+        // row (1, 1): [1+2, -1+0+0.1, 0.5-0.5+0.2] = [3, 0 (relu of -0.9), 0.2]
+        // row (0, 1): [2, 0.1, -0.5+0.2 -> 0] ; max = [3, 0.1, 0.2]
+        let mut out = [0.0; 2];
+        net.forward(&[1.0, 1.0, 0.0, 1.0], &mut out).unwrap();
+        assert!(
+            (out[0] - 3.2).abs() < 1e-6 && (out[1] - 0.3).abs() < 1e-6,
+            "{out:?}"
+        );
+    }
+
+    #[test]
+    fn blocked_kernel_matches_reference_for_odd_sizes() {
+        // widths not multiples of the tile, row counts not multiples of the block
+        let mut state = 12345u64;
+        let mut rnd = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) as f32 / (1u64 << 31) as f32) - 0.5
+        };
+        let dims = [(5, 19), (19, 24), (24, 37)];
+        let point: Vec<DenseLayer> = dims
+            .iter()
+            .map(|&(i, o)| {
+                DenseLayer::new(
+                    i,
+                    o,
+                    (0..i * o).map(|_| rnd()).collect(),
+                    (0..o).map(|_| rnd()).collect(),
+                )
+                .unwrap()
+            })
+            .collect();
+        let head = vec![
+            DenseLayer::new(
+                37,
+                11,
+                (0..37 * 11).map(|_| rnd()).collect(),
+                (0..11).map(|_| rnd()).collect(),
+            )
+            .unwrap(),
+            DenseLayer::new(
+                11,
+                4,
+                (0..44).map(|_| rnd()).collect(),
+                (0..4).map(|_| rnd()).collect(),
+            )
+            .unwrap(),
+        ];
+        let net = FoldedNetwork::new(5, point, head, true).unwrap();
+        for n in [1, 3, 4, 7, 16] {
+            let rows: Vec<f32> = (0..5 * n).map(|_| 4.0 * rnd()).collect();
+            let mut out = [0.0; 4];
+            net.forward(&rows, &mut out).unwrap();
+            let mut portable = [0.0; 4];
+            net.forward_impl::<8, false>(&rows, &mut portable);
+            let want = reference(&net, &rows);
+            for ((a, p), b) in out.iter().zip(&portable).zip(&want) {
+                assert!((a - b).abs() < 1e-5, "n={n}: {out:?} vs {want:?}");
+                assert!(
+                    (p - b).abs() < 1e-5,
+                    "n={n}: portable {portable:?} vs {want:?}"
+                );
+            }
+        }
+        let back = FoldedNetwork::from_bytes(&net.to_bytes()).unwrap();
+        assert_eq!(back, net);
+    }
+
+    #[test]
+    fn typed_errors() {
+        let net = tiny();
+        let mut out = [0.0; 2];
+        assert_eq!(net.forward(&[], &mut out), Err(RegressorError::EmptyInput));
+        assert_eq!(
+            net.forward(&[1.0; 3], &mut out),
+            Err(RegressorError::RowLength { len: 3, width: 2 })
+        );
+        assert_eq!(
+            net.forward(&[1.0; 2], &mut [0.0; 3]),
+            Err(RegressorError::OutputLength {
+                expected: 2,
+                got: 3
+            })
+        );
+        assert_eq!(
+            net.forward(&[f32::NAN, 1.0], &mut out),
+            Err(RegressorError::NonFinite)
+        );
+        let bytes = net.to_bytes();
+        assert!(matches!(
+            FoldedNetwork::from_bytes(&bytes[..bytes.len() - 1]),
+            Err(RegressorError::Format(_))
+        ));
+        let mut extra = bytes.clone();
+        extra.push(0);
+        assert!(matches!(
+            FoldedNetwork::from_bytes(&extra),
+            Err(RegressorError::Format(_))
+        ));
+        assert!(matches!(
+            FoldedNetwork::from_bytes(b"NOTMAGIC"),
+            Err(RegressorError::Format(_))
+        ));
+    }
+
+    #[test]
+    fn upnp_rows_are_normalized() {
+        let pts = [
+            ([1.0, 2.0, 3.0], [0.0, 0.0, 2.0], [0.5, 0.0, 0.0]),
+            ([3.0, 2.0, 3.0], [0.0, 3.0, 0.0], [-0.5, 0.0, 0.0]),
+        ];
+        let mut out = [0.0f32; 18];
+        upnp_rows(2, |i| pts[i], &mut out).unwrap();
+        // p_mean = (2,2,3), s = 1; v_mean = 0
+        assert_eq!(&out[..9], &[-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.5, 0.0, 0.0]);
+        assert_eq!(&out[9..], &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, -0.5, 0.0, 0.0]);
+        assert_eq!(
+            upnp_rows(2, |i| pts[i], &mut out[..9]),
+            Err(RegressorError::OutputLength {
+                expected: 18,
+                got: 9
+            })
+        );
+        assert_eq!(
+            upnp_rows(1, |_| ([0.0; 3], [0.0; 3], [0.0; 3]), &mut out[..9]),
+            Err(RegressorError::NonFinite)
+        );
+    }
+}

@@ -4,4 +4,5 @@
 
 pub mod grps;
 pub mod metrics;
+pub mod start_systems;
 pub mod upnp;

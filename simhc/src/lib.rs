@@ -6,7 +6,9 @@
 //! - [`problem`]: the traits of a compiled polynomial system `F(x; p)`;
 //! - [`simulator`]: online simulators, including the generic minimum-norm one.
 
+pub mod all_roots;
 pub mod homotopy;
+pub mod monodromy;
 pub mod problem;
 pub mod regressor;
 pub mod scalar;

@@ -1,0 +1,625 @@
+//! All-roots solving by a complex parameter homotopy from a stored start system (the "CPU HC"
+//! baseline of the paper), after HomotopyContinuation.jl's
+//! `solve(F, starts; start_parameters, target_parameters)`.
+//!
+//! A [`StartSystem`] is a generic complex instance `p*` with all its isolated solutions (one per
+//! symmetry orbit), found once by [`crate::monodromy`]. To solve a (real) target `p`, every start
+//! solution is tracked in `Complex<f64>` along `p(t) = (1-t) p* + t p + t (1-t) b`:
+//! - `b = 0` (default): the straight segment. `p*` is random complex, which is what the gamma
+//!   trick provides: for almost every `p*` no path meets a singular instance for `t < 1`, and
+//!   every isolated solution of the target is the end point of some path (coefficient-parameter
+//!   homotopy, Sommese-Wampler Thm. 7.1.1);
+//! - `bend > 0`: additionally a seeded random complex bend `b` of size `bend |p - p*|`, the
+//!   gamma trick drawn afresh per solve ([`AllRootsOptions::bend`]).
+//!
+//! End points are classified as real when every imaginary part is at most `real_tolerance`
+//! (relative), polished by real Newton on the target, and returned sorted by residual. Paths run
+//! sequentially or in parallel (rayon); the result does not depend on the thread count.
+
+use crate::homotopy::{real_if_close, to_complex, Homotopy, ParameterHomotopy};
+use crate::monodromy::{relative_distance, SignFlip, C};
+use crate::tracker::{
+    newton, track, AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackError, TrackStats,
+    TrackerOptions,
+};
+use crate::{CoefficientForm, ParamDerivative};
+use nalgebra::{SMatrix, SVector};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+/// A generic complex instance `p*` and its solutions (one representative per orbit of
+/// `symmetry`).
+#[derive(Debug, Clone)]
+pub struct StartSystem<const N: usize, const NP: usize> {
+    /// The start parameters `p*`.
+    pub params: SVector<C, NP>,
+    /// The solutions of `F(.; p*) = 0`.
+    pub solutions: Vec<SVector<C, N>>,
+    /// The sign symmetry the solutions are taken modulo, if any.
+    pub symmetry: Option<SignFlip>,
+}
+
+impl<const N: usize, const NP: usize> StartSystem<N, NP> {
+    /// Max-norm residual `max |F(x; p*)|` over the start solutions.
+    pub fn max_residual<P: ParamDerivative<N, N, NP>>(&self) -> f64 {
+        let mut f = SVector::<C, N>::zeros();
+        self.solutions
+            .iter()
+            .map(|x| {
+                P::residual(x, &self.params, &mut f);
+                f.iter().map(|z| z.norm()).fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Settings of [`solve_all`].
+#[derive(Debug, Clone, Copy)]
+pub struct AllRootsOptions {
+    /// Path tracker settings. Default: [`all_roots_tracker`].
+    pub tracker: TrackerOptions,
+    /// Size of the random complex bend of the parameter path relative to `|p - p*|`; `0`
+    /// (default) tracks the straight segment (see the module docs).
+    pub bend: f64,
+    /// Seed of the bend direction. Default `0`.
+    pub seed: u64,
+    /// An end point is real when every `|Im x_i| <= real_tolerance * max(1, |x_i|)`.
+    /// Default `1e-6`.
+    pub real_tolerance: f64,
+    /// Real end points are polished by this many real Newton iterations on the target (`0`:
+    /// none). Default `2`.
+    pub polish_iterations: usize,
+    /// Track in parallel with rayon. Default `false`.
+    pub parallel: bool,
+    /// Path-jump repair: paths that failed or whose end points coincide with another path's
+    /// (relative distance below `duplicate_tolerance`, modulo the symmetry) are tracked again
+    /// with these stricter settings, up to `retrack_rounds` times (each round halves the largest
+    /// step). Two paths of a parameter homotopy from a generic start never meet before `t = 1`,
+    /// so coinciding regular end points mean that one path jumped onto another (losing a root);
+    /// coinciding singular end points (a multiple root of the target) stay duplicated. `None`
+    /// disables the repair. Default: [`strict_tracker`].
+    pub retrack: Option<TrackerOptions>,
+    /// Rounds of the path-jump repair. Default `2`.
+    pub retrack_rounds: usize,
+    /// End points closer than this (relative max-norm) are the same. Default `1e-8`.
+    pub duplicate_tolerance: f64,
+}
+
+/// The all-roots tracker: the adaptive tracker ([`TrackerOptions::default`], faithful, no drag
+/// steps) with the Heun predictor. Calibration (GRPS7 from the shipped start, 200 noise-free
+/// scenes, this machine): RK4 146 ms per solve, Heun about 25 % less at the same success (every
+/// ground truth found, with the path-jump repair); Heun needs more but cheaper steps, and the
+/// complex evaluation of `J_x` and `dH/dt` dominates the cost.
+pub fn all_roots_tracker() -> TrackerOptions {
+    TrackerOptions {
+        predictor: Predictor::Heun,
+        ..TrackerOptions::default()
+    }
+}
+
+/// The tracker for re-tracking suspicious paths: the adaptive tracker with a tighter
+/// contraction test, path-jump guard and largest step (`0.1`), and the RK4 predictor.
+pub fn strict_tracker() -> TrackerOptions {
+    TrackerOptions::adaptive(AdaptiveStep {
+        initial: 0.02,
+        max: 0.1,
+        max_contraction: 0.1,
+        max_relative_correction: 0.1,
+        target_contraction: 0.02,
+        ..AdaptiveStep::default()
+    })
+}
+
+impl Default for AllRootsOptions {
+    fn default() -> Self {
+        Self {
+            tracker: all_roots_tracker(),
+            bend: 0.0,
+            seed: 0,
+            real_tolerance: 1e-6,
+            polish_iterations: 2,
+            parallel: false,
+            retrack: Some(strict_tracker()),
+            retrack_rounds: 2,
+            duplicate_tolerance: 1e-8,
+        }
+    }
+}
+
+/// A real solution of the target.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RealSolution<const N: usize> {
+    /// The solution (canonical representative of its symmetry orbit).
+    pub x: SVector<f64, N>,
+    /// `max |F(x; p)|` on the target.
+    pub residual: f64,
+    /// Index of the start solution whose path ended here.
+    pub path: usize,
+}
+
+/// The outcome of [`solve_all`].
+#[derive(Debug, Clone)]
+pub struct AllRootsResult<const N: usize> {
+    /// End point of every path (`Err` for failed paths), in start-solution order.
+    pub endpoints: Vec<Result<SVector<C, N>, TrackError>>,
+    /// The real end points, polished, sorted by residual (smallest first).
+    pub real: Vec<RealSolution<N>>,
+    /// Summed work counters of the successful paths (last attempt of re-tracked ones).
+    pub stats: TrackStats,
+    /// Number of failed paths.
+    pub failed: usize,
+    /// The symmetry of the start system (for [`AllRootsResult::closest_real`]).
+    pub symmetry: Option<SignFlip>,
+    /// Paths tracked again by the path-jump repair ([`AllRootsOptions::retrack`]).
+    pub retracked: usize,
+    /// Successful paths whose end point still coincides with another's after the repair
+    /// (multiple roots of the target, or unrepaired jumps).
+    pub duplicates: usize,
+}
+
+impl<const N: usize> AllRootsResult<N> {
+    /// The real solution closest to `x` (relative max-norm, modulo the symmetry): the
+    /// benchmark's "best real solution" against the ground truth.
+    pub fn closest_real(&self, x: &SVector<f64, N>) -> Option<(&RealSolution<N>, f64)> {
+        let gx = self.symmetry.as_ref().map(|g| g.apply(x));
+        self.real
+            .iter()
+            .map(|s| {
+                let mut d = relative_distance(x, &s.x);
+                if let Some(gx) = &gx {
+                    d = d.min(relative_distance(gx, &s.x));
+                }
+                (s, d)
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// The real solution with the smallest `score` (a selection criterion, e.g. a reprojection
+    /// error or the distance to the ground truth).
+    pub fn best_real_by<F: Fn(&RealSolution<N>) -> f64>(
+        &self,
+        score: F,
+    ) -> Option<&RealSolution<N>> {
+        self.real
+            .iter()
+            .map(|s| (s, score(s)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(s, _)| s)
+    }
+
+    /// Number of finite (successful) end points.
+    pub fn finite(&self) -> usize {
+        self.endpoints.len() - self.failed
+    }
+}
+
+/// The parameter path of one solve.
+fn homotopy_for<P, const N: usize, const NP: usize>(
+    start: &StartSystem<N, NP>,
+    target: &SVector<f64, NP>,
+    options: &AllRootsOptions,
+) -> ParameterHomotopy<P, C, NP>
+where
+    P: ParamDerivative<N, N, NP>,
+{
+    let p1 = to_complex(target);
+    if options.bend > 0.0 {
+        let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+        let mut b = crate::monodromy::random_complex_vector::<NP>(&mut rng, 1.0);
+        let len = (p1 - start.params).norm();
+        let bn = b.norm();
+        if bn > 0.0 {
+            b *= C::new(options.bend * len / bn, 0.0);
+        }
+        ParameterHomotopy::with_bend(start.params, p1, b)
+    } else {
+        ParameterHomotopy::new(start.params, p1)
+    }
+}
+
+/// Tracks every start solution to the real target `p` along a [`ParameterHomotopy`] and
+/// returns all end points and the real solutions (see the module docs). Works for any square
+/// [`ParamDerivative`]; [`solve_all_fast`] is the same path at a lower cost per step for
+/// problems with a [`CoefficientForm`].
+pub fn solve_all<P, const N: usize, const NP: usize>(
+    start: &StartSystem<N, NP>,
+    target: &SVector<f64, NP>,
+    options: &AllRootsOptions,
+) -> AllRootsResult<N>
+where
+    P: ParamDerivative<N, N, NP>,
+{
+    let h = homotopy_for::<P, N, NP>(start, target, options);
+    solve_along::<P, _, N, NP>(&h, start, target, options)
+}
+
+/// [`solve_all`] with `dH/dt` from the coefficient form ([`CoefficientParameterHomotopy`]):
+/// the same paths, cheaper steps. Falls back to [`solve_all`] when the coefficients are not
+/// polynomials of degree at most [`MAX_COEFFICIENT_DEGREE`] along the path.
+pub fn solve_all_fast<P, const N: usize, const NP: usize, const NC: usize>(
+    start: &StartSystem<N, NP>,
+    target: &SVector<f64, NP>,
+    options: &AllRootsOptions,
+) -> AllRootsResult<N>
+where
+    P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
+{
+    let base = homotopy_for::<P, N, NP>(start, target, options);
+    match CoefficientParameterHomotopy::<P, NP, NC>::new::<N>(base) {
+        Some(h) => solve_along::<P, _, N, NP>(&h, start, target, options),
+        None => solve_along::<P, _, N, NP>(&base, start, target, options),
+    }
+}
+
+/// Tracks all start solutions along `h` (sequentially or with rayon) and collects the result.
+fn solve_along<P, H, const N: usize, const NP: usize>(
+    h: &H,
+    start: &StartSystem<N, NP>,
+    target: &SVector<f64, NP>,
+    options: &AllRootsOptions,
+) -> AllRootsResult<N>
+where
+    P: ParamDerivative<N, N, NP>,
+    H: Homotopy<C, N, N> + Sync,
+{
+    let track_all = |indices: &[usize], opts: &TrackerOptions| -> Vec<_> {
+        let one = |&i: &usize| track(h, &start.solutions[i], opts);
+        if options.parallel {
+            indices.par_iter().map(one).collect()
+        } else {
+            indices.iter().map(one).collect()
+        }
+    };
+    let all: Vec<usize> = (0..start.solutions.len()).collect();
+    let mut results = track_all(&all, &options.tracker);
+    let mut retracked = 0;
+    if let Some(strict) = options.retrack {
+        let mut opts = strict;
+        for _ in 0..options.retrack_rounds {
+            let suspects = suspicious_paths(
+                &results,
+                start.symmetry.as_ref(),
+                options.duplicate_tolerance,
+            );
+            if suspects.is_empty() {
+                break;
+            }
+            retracked += suspects.len();
+            for (i, r) in suspects.iter().zip(track_all(&suspects, &opts)) {
+                // Keep a success over a failure.
+                if r.is_ok() || results[*i].is_err() {
+                    results[*i] = r;
+                }
+            }
+            if let StepControl::Adaptive(a) = &mut opts.step {
+                a.max *= 0.5;
+                a.initial = a.initial.min(a.max);
+            }
+        }
+    }
+    let mut result = finish::<P, N, NP>(results, target, options, start.symmetry.clone());
+    result.retracked = retracked;
+    result.duplicates = suspicious_paths(
+        &result.endpoints,
+        start.symmetry.as_ref(),
+        options.duplicate_tolerance,
+    )
+    .iter()
+    .filter(|&&i| result.endpoints[i].is_ok())
+    .count();
+    result
+}
+
+/// Indices of the paths that failed or whose end point coincides with another path's (modulo
+/// the symmetry).
+pub fn suspicious_paths<T: EndPoint<N>, const N: usize>(
+    results: &[Result<T, TrackError>],
+    symmetry: Option<&SignFlip>,
+    tolerance: f64,
+) -> Vec<usize> {
+    let mut flagged = vec![false; results.len()];
+    // Sort by a cheap key (modulus of the first coordinate, symmetric under sign flips) so that
+    // only neighbours in the key need the full comparison.
+    let mut order: Vec<(f64, usize)> = results
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| match r {
+            Ok(r) => Some((key(r.point()), i)),
+            Err(_) => {
+                flagged[i] = true;
+                None
+            }
+        })
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for a in 0..order.len() {
+        let (ka, ia) = order[a];
+        let xa = match &results[ia] {
+            Ok(r) => *r.point(),
+            Err(_) => continue,
+        };
+        let gxa = symmetry.map(|g| g.apply(&xa));
+        for &(kb, ib) in &order[a + 1..] {
+            if kb - ka > tolerance * ka.max(1.0) * 2.0 + 1e-300 {
+                break;
+            }
+            if let Ok(rb) = &results[ib] {
+                let xb = rb.point();
+                let d = relative_distance(&xa, xb).min(
+                    gxa.as_ref()
+                        .map_or(f64::INFINITY, |g| relative_distance(g, xb)),
+                );
+                if d <= tolerance {
+                    flagged[ia] = true;
+                    flagged[ib] = true;
+                }
+            }
+        }
+    }
+    (0..results.len()).filter(|&i| flagged[i]).collect()
+}
+
+/// Sort key of an end point: the largest modulus over its coordinates (sign-flip invariant).
+fn key<const N: usize>(x: &SVector<C, N>) -> f64 {
+    x.iter().map(|z| z.norm()).fold(0.0, f64::max)
+}
+
+/// Something with an end point: a [`crate::tracker::TrackResult`] or a bare point.
+pub trait EndPoint<const N: usize> {
+    /// The point.
+    fn point(&self) -> &SVector<C, N>;
+}
+
+impl<const N: usize> EndPoint<N> for SVector<C, N> {
+    fn point(&self) -> &SVector<C, N> {
+        self
+    }
+}
+
+impl<const N: usize> EndPoint<N> for crate::tracker::TrackResult<C, N> {
+    fn point(&self) -> &SVector<C, N> {
+        &self.x
+    }
+}
+
+/// Largest degree in `t` of the coefficients `c(p(t))` that [`CoefficientParameterHomotopy`]
+/// interpolates.
+pub const MAX_COEFFICIENT_DEGREE: usize = 4;
+
+/// The parameter homotopy `H(x, t) = F(x; p(t))` of a [`ParameterHomotopy`], with
+/// `dH/dt = dFc/dc (x) * dc(p(t))/dt` taken from the coefficient form instead of
+/// [`ParamDerivative::param_directional`].
+///
+/// Along a straight or bent parameter path (`p(t)` quadratic in `t`) the coefficients `c(p(t))`
+/// are polynomials in `t` (degree `deg c` on a straight segment, `2 deg c` with a bend); they
+/// are interpolated once per solve at `MAX_COEFFICIENT_DEGREE + 1` equispaced points and
+/// checked at one more, so `dc/dt` costs a short Horner loop and `dH/dt` one evaluation of
+/// [`CoefficientForm::coefficient_part`] (GRPS7: 0.6 us against 5.3 us in `Complex<f64>`).
+/// `H` and `J_x` still come from the parameter form (cheaper than the coefficient form there).
+pub struct CoefficientParameterHomotopy<P, const NP: usize, const NC: usize> {
+    base: ParameterHomotopy<P, C, NP>,
+    /// `dc/dt = sum_k dc[k] t^k`.
+    dc: Vec<SVector<C, NC>>,
+}
+
+impl<P, const NP: usize, const NC: usize> std::fmt::Debug
+    for CoefficientParameterHomotopy<P, NP, NC>
+{
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CoefficientParameterHomotopy")
+            .field("base", &self.base)
+            .field("degree", &self.dc.len())
+            .finish()
+    }
+}
+
+impl<P, const NP: usize, const NC: usize> CoefficientParameterHomotopy<P, NP, NC> {
+    /// Interpolates `c(p(t))` for the path of `base`; `None` if its degree exceeds
+    /// [`MAX_COEFFICIENT_DEGREE`] (checked at an extra point).
+    pub fn new<const N: usize>(base: ParameterHomotopy<P, C, NP>) -> Option<Self>
+    where
+        P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
+    {
+        const D: usize = MAX_COEFFICIENT_DEGREE;
+        let ts: [f64; D + 1] = std::array::from_fn(|j| j as f64 / D as f64);
+        let mut samples = Vec::with_capacity(D + 1);
+        for &t in &ts {
+            let mut c = SVector::<C, NC>::zeros();
+            P::coefficients(&base.params_at(t), &mut c);
+            samples.push(c);
+        }
+        // Newton's divided differences, then the monomial coefficients.
+        let mut dd = samples.clone();
+        for k in 1..=D {
+            for j in (k..=D).rev() {
+                let inv = C::new(1.0 / (ts[j] - ts[j - k]), 0.0);
+                dd[j] = (dd[j] - dd[j - 1]) * inv;
+            }
+        }
+        // Newton form to monomial form: a(t) = dd[0] + (t - t0)(dd[1] + (t - t1)(...)).
+        let mut a = [SVector::<C, NC>::zeros(); D + 1];
+        for j in (0..=D).rev() {
+            // a <- a * (t - ts[j]) + dd[j]
+            for k in (1..=D).rev() {
+                a[k] = a[k - 1] - a[k] * C::new(ts[j], 0.0);
+            }
+            a[0] = dd[j] - a[0] * C::new(ts[j], 0.0);
+        }
+        // Check at an extra point.
+        let tc = 0.377;
+        let mut c = SVector::<C, NC>::zeros();
+        P::coefficients(&base.params_at(tc), &mut c);
+        let mut e = a[D];
+        for k in (0..D).rev() {
+            e = e * C::new(tc, 0.0) + a[k];
+        }
+        let scale = samples.iter().map(|s| s.camax()).fold(1.0, f64::max);
+        if (e - c).camax() > 1e-9 * scale {
+            return None;
+        }
+        let mut dc: Vec<SVector<C, NC>> = (1..=D).map(|k| a[k] * C::new(k as f64, 0.0)).collect();
+        while dc.len() > 1 && dc.last().is_some_and(|v| v.camax() <= 1e-13 * scale) {
+            dc.pop();
+        }
+        Some(Self { base, dc })
+    }
+
+    #[inline]
+    fn dc_at(&self, t: f64) -> SVector<C, NC> {
+        let tc = C::new(t, 0.0);
+        let mut v = self.dc[self.dc.len() - 1];
+        for k in (0..self.dc.len() - 1).rev() {
+            for (vi, di) in v.iter_mut().zip(self.dc[k].iter()) {
+                *vi = *vi * tc + *di;
+            }
+        }
+        v
+    }
+}
+
+impl<P, const N: usize, const NP: usize, const NC: usize> Homotopy<C, N, N>
+    for CoefficientParameterHomotopy<P, NP, NC>
+where
+    P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
+{
+    #[inline]
+    fn evaluate(
+        &self,
+        x: &SVector<C, N>,
+        t: f64,
+        h: &mut SVector<C, N>,
+        jx: &mut SMatrix<C, N, N>,
+    ) {
+        P::residual_jacobian(x, &self.base.params_at(t), h, jx);
+    }
+
+    #[inline]
+    fn dt(&self, x: &SVector<C, N>, t: f64, dh: &mut SVector<C, N>) {
+        P::coefficient_part(x, &self.dc_at(t), dh);
+    }
+
+    #[inline]
+    fn residual(&self, x: &SVector<C, N>, t: f64, h: &mut SVector<C, N>) {
+        P::residual(x, &self.base.params_at(t), h);
+    }
+
+    #[inline]
+    fn jacobian_dt(
+        &self,
+        x: &SVector<C, N>,
+        t: f64,
+        jx: &mut SMatrix<C, N, N>,
+        dh: &mut SVector<C, N>,
+    ) {
+        P::jacobian(x, &self.base.params_at(t), jx);
+        P::coefficient_part(x, &self.dc_at(t), dh);
+    }
+}
+
+/// Collects the path results: statistics, real end points (polished, canonical, sorted).
+fn finish<P, const N: usize, const NP: usize>(
+    results: Vec<Result<crate::tracker::TrackResult<C, N>, TrackError>>,
+    target: &SVector<f64, NP>,
+    options: &AllRootsOptions,
+    symmetry: Option<SignFlip>,
+) -> AllRootsResult<N>
+where
+    P: ParamDerivative<N, N, NP>,
+{
+    let mut stats = TrackStats::default();
+    let mut failed = 0;
+    let mut real = Vec::new();
+    let fixed = crate::homotopy::FixedSystem::<P, f64, NP>::new(*target);
+    let newton_options = NewtonOptions {
+        max_iterations: options.polish_iterations,
+        ..NewtonOptions::default()
+    };
+    let endpoints = results
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| match r {
+            Ok(r) => {
+                stats.accepted_steps += r.stats.accepted_steps;
+                stats.rejected_steps += r.stats.rejected_steps;
+                stats.newton_iterations += r.stats.newton_iterations;
+                stats.factorizations += r.stats.factorizations;
+                stats.drag_steps += r.stats.drag_steps;
+                if let Some(mut xr) = real_if_close(&r.x, options.real_tolerance) {
+                    if options.polish_iterations > 0 {
+                        if let Ok(n) = newton::<f64, _, N, N>(&fixed, &xr, 1.0, &newton_options) {
+                            if n.residual <= fixed.validation_residual(&xr, 1.0) {
+                                xr = n.x;
+                            }
+                        }
+                    }
+                    if let Some(g) = &symmetry {
+                        xr = g.canonical(&xr);
+                    }
+                    let residual = fixed.validation_residual(&xr, 1.0);
+                    real.push(RealSolution {
+                        x: xr,
+                        residual,
+                        path: i,
+                    });
+                }
+                Ok(r.x)
+            }
+            Err(e) => {
+                failed += 1;
+                Err(e)
+            }
+        })
+        .collect();
+    real.sort_by(|a, b| a.residual.total_cmp(&b.residual));
+    AllRootsResult {
+        endpoints,
+        real,
+        stats,
+        failed,
+        symmetry,
+        retracked: 0,
+        duplicates: 0,
+    }
+}
+
+/// Moves a start system to new complex parameters `params` by tracking every solution along the
+/// straight complex segment (both ends generic, so no path is singular with probability one).
+/// Returns the moved system and the number of paths that failed (their solutions are missing:
+/// recover them with [`crate::monodromy::monodromy_from`]). End points are deduplicated modulo
+/// the symmetry with relative tolerance `1e-6`.
+pub fn move_start_system<P, const N: usize, const NP: usize>(
+    start: &StartSystem<N, NP>,
+    params: &SVector<C, NP>,
+    options: &AllRootsOptions,
+) -> (StartSystem<N, NP>, usize)
+where
+    P: ParamDerivative<N, N, NP>,
+{
+    let h = ParameterHomotopy::<P, C, NP>::new(start.params, *params);
+    let one = |x: &SVector<C, N>| track(&h, x, &options.tracker);
+    let results: Vec<_> = if options.parallel {
+        start.solutions.par_iter().map(one).collect()
+    } else {
+        start.solutions.iter().map(one).collect()
+    };
+    let mut set = crate::monodromy::SolutionSet::<N>::new(start.symmetry.clone(), 1e-6);
+    let mut failed = 0;
+    for r in results {
+        match r {
+            Ok(r) => {
+                set.insert(&r.x);
+            }
+            Err(_) => failed += 1,
+        }
+    }
+    failed += start.solutions.len() - failed - set.len();
+    (
+        StartSystem {
+            params: *params,
+            solutions: set.into_vec(),
+            symmetry: start.symmetry.clone(),
+        },
+        failed,
+    )
+}

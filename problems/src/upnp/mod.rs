@@ -1,6 +1,8 @@
 //! Generalized absolute pose via UPnP: declaration, scene sampler, cost matrix, simulator.
 pub mod geometry;
+pub mod refine;
 pub mod scene;
+pub mod solver;
 mod system;
 
 pub use system::upnp::*;

@@ -29,6 +29,14 @@ enum BenchName {
     Tracker,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+enum MonodromyProblem {
+    /// GRPS with 7 correspondences (140 solutions modulo q -> -q).
+    Grps7,
+    /// UPnP as the square Lagrange system [q, lambda] (40 solutions modulo q -> -q).
+    Upnp,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// The paper's benchmark rows, measured in one run on the same trials.
@@ -70,6 +78,24 @@ enum Command {
         /// Epochs (default: that of the shipped weights).
         #[arg(long)]
         epochs: Option<usize>,
+    },
+    /// Find all solutions of a generic instance by monodromy and write the start system
+    /// (solution counts are reported against theory).
+    Monodromy {
+        /// Built-in square problem.
+        problem: MonodromyProblem,
+        /// Seed of the run.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Stop after this many loops without a new solution.
+        #[arg(long, default_value_t = 5)]
+        stall_loops: usize,
+        /// Write the start system (JSON) here; the shipped ones are problems/data/*_start.json.
+        #[arg(long)]
+        output: Option<PathBuf>,
+        /// Track paths in parallel (rayon).
+        #[arg(long)]
+        parallel: bool,
     },
     /// Solve a user's correspondences from a JSON file and print the pose as JSON.
     Solve {
@@ -135,6 +161,9 @@ fn run(cli: Cli) -> Result<(), String> {
             } else {
                 print!("{}", stats::table(&report.rows));
                 println!("success: E_R < {} deg; errors over returned poses; times in microseconds per solve", report.thresholds.rotation_deg);
+                if let Some(ratio) = stats::median_time_ratio(&report.rows, "All-roots HC (1 thread)", "Pred Initial + Simulator HC") {
+                    println!("median time, All-roots HC / Pred Initial + Simulator HC: {ratio:.1}x");
+                }
             }
             Ok(())
         }
@@ -151,6 +180,18 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             let out = out.unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../problems/weights"));
             simhc_regressor::upnp::train_and_write(&out, &config).map_err(|e| e.to_string())
+        }
+        Command::Monodromy { problem, seed, stall_loops, output, parallel } => {
+            use simhc_problems::start_systems::{run_monodromy_grps7, run_monodromy_upnp, MonodromyConfig};
+            let config = MonodromyConfig { seed, stall_loops, parallel, output, ..MonodromyConfig::default() };
+            println!("simhc monodromy: seed {seed}, stop after {stall_loops} loops without a new solution");
+            let report = match problem {
+                MonodromyProblem::Grps7 => run_monodromy_grps7(&config),
+                MonodromyProblem::Upnp => run_monodromy_upnp(&config),
+            }
+            .map_err(|e| e.to_string())?;
+            println!("{report}");
+            Ok(())
         }
         Command::Solve { problem: ProblemName::Upnp, input } => {
             let text = std::fs::read_to_string(&input).map_err(|e| format!("{}: {e}", input.display()))?;

@@ -171,3 +171,9 @@ pub fn table(rows: &[Summary]) -> String {
     }
     out
 }
+
+/// Ratio of two rows' median times (`numerator / denominator`), when both rows exist.
+pub fn median_time_ratio(rows: &[Summary], numerator: &str, denominator: &str) -> Option<f64> {
+    let find = |name: &str| rows.iter().find(|r| r.method == name).map(|r| r.time_median_us);
+    Some(find(numerator)? / find(denominator)?)
+}

@@ -8,7 +8,8 @@ use serde::Serialize;
 use simhc_problems::metrics::{
     quat_from_rotation, random_unit_quaternion, rotation_error_deg, rotation_from_quat, translation_error_pct,
 };
-use simhc_problems::upnp::geometry::translation_from_rotation;
+use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
+use simhc_problems::upnp::geometry::{translation_from_rotation, upnp_system};
 use simhc_problems::upnp::refine::{levenberg_marquardt, LmOptions};
 use simhc_problems::upnp::scene::{UpnpCorrespondence, UpnpScene, UpnpSceneConfig};
 use simhc_problems::upnp::solver::UpnpSolver;
@@ -79,6 +80,8 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
     let mut pred_lm = MethodRecord::new("Pred Initial + LM");
     let mut rand_hc = MethodRecord::new("Rand Initial + Simulator HC");
     let mut pred_hc = MethodRecord::new("Pred Initial + Simulator HC");
+    let mut all_roots = MethodRecord::new("All-roots HC (1 thread)");
+    let all_roots_options = simhc::all_roots::AllRootsOptions::default();
     let bar = crate::progress_bar(trials.len() as u64, progress);
     for scene in trials {
         let corrs: &[UpnpCorrespondence] = &scene.correspondences;
@@ -133,10 +136,35 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
             ),
             Err(_) => failed(micros),
         });
+
+        // All-roots HC: every path of the Lagrange system from the shipped start system, the
+        // real solution closest to the ground truth kept (the paper's choice).
+        let t0 = Instant::now();
+        let solved = upnp_system(corrs).ok().map(|sys| {
+            (sys, solve_upnp(&simhc_problems::upnp::params_of(&sys.m), &all_roots_options))
+        });
+        let micros = us(t0.elapsed());
+        let q_gt = quat_from_rotation(&scene.rotation);
+        let best = solved.as_ref().and_then(|(sys, result)| {
+            let score = |x: &nalgebra::SVector<f64, 5>| {
+                let n = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]).sqrt();
+                let dot = (x[0] * q_gt[0] + x[1] * q_gt[1] + x[2] * q_gt[2] + x[3] * q_gt[3]) / n;
+                -dot.abs()
+            };
+            best_real_solution(result, Selection::MinScore(&score)).map(|s| (sys, s))
+        });
+        all_roots.outcomes.push(match best {
+            Some((sys, s)) => {
+                let n = (s.x[0] * s.x[0] + s.x[1] * s.x[1] + s.x[2] * s.x[2] + s.x[3] * s.x[3]).sqrt();
+                let q = [s.x[0] / n, s.x[1] / n, s.x[2] / n, s.x[3] / n];
+                outcome(&rotation_from_quat(q), &sys.translation(q), scene, micros, None)
+            }
+            None => failed(micros),
+        });
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let rows = [pred, pred_lm, rand_hc, pred_hc].iter().map(|m| m.summary(&THRESHOLDS)).collect();
+    let rows: Vec<Summary> = [pred, pred_lm, rand_hc, pred_hc, all_roots].iter().map(|m| m.summary(&THRESHOLDS)).collect();
     Ok(BenchReport { problem: "upnp", seed: options.seed, trials: trials.len(), source, thresholds: THRESHOLDS, rows })
 }
 

@@ -6,7 +6,8 @@ use nalgebra::SVector;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use simhc::homotopy::{CoefficientLine, Homotopy, ParameterHomotopy, SquaredUp};
+use num_complex::Complex;
+use simhc::homotopy::{real_if_close, to_complex, CoefficientLine, Homotopy, ParameterHomotopy, SquaredUp};
 use simhc::tracker::{solve_newton, track, NewtonOptions, TrackerOptions};
 use simhc::OnlineSimulator;
 use simhc_problems::grps::scene::GrpsSceneConfig;
@@ -108,15 +109,7 @@ pub fn grps_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
         let Some(rows) = grps::rows_of::<8>(&scene.correspondences) else { continue };
         let p1 = grps::Grps8::params(&rows);
         let Ok(p0) = grps::Grps8.simulate(&x0, &p1) else { continue };
-        let ok = |x: &SVector<f64, 8>| {
-            let q = [x[0], x[1], x[2], x[3]];
-            let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let r = rotation_from_quat(q.map(|v| v / n));
-            let t = nalgebra::Vector3::new(x[4], x[5], x[6]);
-            rotation_error_deg(&r, &scene.rotation) < 1.0
-                && (t - scene.translation).norm() < 0.01 * scene.translation.norm()
-                && (x[7] - scene.scale).abs() < 0.01 * scene.scale
-        };
+        let ok = |x: &SVector<f64, 8>| grps_ok(x, &scene);
         let line = CoefficientLine::<grps::Grps8, f64, 96, 304>::new::<8, 9>(&p0, &p1);
         let param = ParameterHomotopy::<grps::Grps8, f64, 96>::new(p0, p1);
         outcomes[0].push(run(&line, &x0, &TrackerOptions::paper(0.05), ok));
@@ -134,6 +127,64 @@ pub fn grps_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
         done += 1;
     }
     methods.iter().zip(&outcomes).map(|(m, o)| row("grps8", m, o, &outcomes[0])).collect()
+}
+
+/// GRPS with 7 correspondences (square): real tracking against the complex detour, which
+/// tracks the real start in complex arithmetic around the real folds.
+pub fn grps7_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let config = GrpsSceneConfig { points: 7, ..GrpsSceneConfig::default() };
+    let methods = [
+        "adaptive, parameter homotopy (real)",
+        "adaptive+drag, straight line (real)",
+        "adaptive, complex detour g=0.3",
+        "adaptive, complex detour g=1",
+    ];
+    let mut outcomes: Vec<Vec<PathOutcome>> = methods.iter().map(|_| Vec::new()).collect();
+    let mut done = 0;
+    while done < paths {
+        let Ok(scene) = config.sample(&mut rng) else { continue };
+        let r0 = random_rotation_perturbation(&scene.rotation, angle, &mut rng);
+        let t0 = perturb_translation(&scene.translation, 0.1, &mut rng);
+        let s0 = perturb_scale(scene.scale, 0.1, &mut rng);
+        let x0 = grps::unknowns_of(&r0, &t0, s0);
+        let Some(rows) = grps::rows_of::<7>(&scene.correspondences) else { continue };
+        let p1 = grps::Grps7::params(&rows);
+        let Ok(p0) = grps::Grps7.simulate(&x0, &p1) else { continue };
+        let ok = |x: &SVector<f64, 8>| grps_ok(x, &scene);
+        let param = ParameterHomotopy::<grps::Grps7, f64, 84>::new(p0, p1);
+        outcomes[0].push(run(&param, &x0, &TrackerOptions::default(), ok));
+        let line = CoefficientLine::<grps::Grps7, f64, 84, 266>::new::<8, 8>(&p0, &p1);
+        outcomes[1].push(run(&line, &x0, &TrackerOptions::single_path(), ok));
+        for (k, g) in [(2, 0.3), (3, 1.0)] {
+            let detour = ParameterHomotopy::<grps::Grps7, Complex<f64>, 84>::with_complex_detour(&p0, &p1, g, seed ^ done as u64);
+            let t = Instant::now();
+            let result = track(&detour, &to_complex(&x0), &TrackerOptions::default());
+            let micros = t.elapsed().as_secs_f64() * 1e6;
+            outcomes[k].push(match result {
+                Ok(r) => PathOutcome {
+                    ok: real_if_close(&r.x, 1e-6).is_some_and(|x| ok(&x)),
+                    accepted: r.stats.accepted_steps,
+                    rejected: r.stats.rejected_steps,
+                    newton: r.stats.newton_iterations,
+                    micros,
+                },
+                Err(_) => PathOutcome { ok: false, accepted: 0, rejected: 0, newton: 0, micros },
+            });
+        }
+        done += 1;
+    }
+    methods.iter().zip(&outcomes).map(|(m, o)| row("grps7", m, o, &outcomes[0])).collect()
+}
+
+fn grps_ok(x: &SVector<f64, 8>, scene: &simhc_problems::grps::scene::GrpsScene) -> bool {
+    let q = [x[0], x[1], x[2], x[3]];
+    let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let r = rotation_from_quat(q.map(|v| v / n));
+    let t = nalgebra::Vector3::new(x[4], x[5], x[6]);
+    rotation_error_deg(&r, &scene.rotation) < 1.0
+        && (t - scene.translation).norm() < 0.01 * scene.translation.norm()
+        && (x[7] - scene.scale).abs() < 0.01 * scene.scale
 }
 
 /// UPnP, 2 px noise, start = truth rotated by `angle` deg, geometric simulator.

@@ -101,11 +101,7 @@ pub fn grps_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
     let mut outcomes: Vec<Vec<PathOutcome>> = methods.iter().map(|_| Vec::new()).collect();
     let mut done = 0;
     while done < paths {
-        let Ok(scene) = config.sample(&mut rng) else { continue };
-        let r0 = random_rotation_perturbation(&scene.rotation, angle, &mut rng);
-        let t0 = perturb_translation(&scene.translation, 0.1, &mut rng);
-        let s0 = perturb_scale(scene.scale, 0.1, &mut rng);
-        let x0 = grps::unknowns_of(&r0, &t0, s0);
+        let Some((scene, x0)) = perturbed_grps_start(&config, angle, &mut rng) else { continue };
         let Some(rows) = grps::rows_of::<8>(&scene.correspondences) else { continue };
         let p1 = grps::Grps8::params(&rows);
         let Ok(p0) = grps::Grps8.simulate(&x0, &p1) else { continue };
@@ -143,11 +139,7 @@ pub fn grps7_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
     let mut outcomes: Vec<Vec<PathOutcome>> = methods.iter().map(|_| Vec::new()).collect();
     let mut done = 0;
     while done < paths {
-        let Ok(scene) = config.sample(&mut rng) else { continue };
-        let r0 = random_rotation_perturbation(&scene.rotation, angle, &mut rng);
-        let t0 = perturb_translation(&scene.translation, 0.1, &mut rng);
-        let s0 = perturb_scale(scene.scale, 0.1, &mut rng);
-        let x0 = grps::unknowns_of(&r0, &t0, s0);
+        let Some((scene, x0)) = perturbed_grps_start(&config, angle, &mut rng) else { continue };
         let Some(rows) = grps::rows_of::<7>(&scene.correspondences) else { continue };
         let p1 = grps::Grps7::params(&rows);
         let Ok(p0) = grps::Grps7.simulate(&x0, &p1) else { continue };
@@ -175,6 +167,21 @@ pub fn grps7_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
         done += 1;
     }
     methods.iter().zip(&outcomes).map(|(m, o)| row("grps7", m, o, &outcomes[0])).collect()
+}
+
+/// A sampled scene and a start: the truth rotated by `angle` degrees about a random axis, with
+/// translation and scale 10 % off.
+fn perturbed_grps_start(
+    config: &GrpsSceneConfig,
+    angle: f64,
+    rng: &mut ChaCha8Rng,
+) -> Option<(simhc_problems::grps::scene::GrpsScene, SVector<f64, 8>)> {
+    let scene = config.sample(rng).ok()?;
+    let r0 = random_rotation_perturbation(&scene.rotation, angle, rng);
+    let t0 = perturb_translation(&scene.translation, 0.1, rng);
+    let s0 = perturb_scale(scene.scale, 0.1, rng);
+    let x0 = grps::unknowns_of(&r0, &t0, s0);
+    Some((scene, x0))
 }
 
 fn grps_ok(x: &SVector<f64, 8>, scene: &simhc_problems::grps::scene::GrpsScene) -> bool {

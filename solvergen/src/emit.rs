@@ -82,9 +82,28 @@ impl Renderer<'_> {
         quote!(#ident)
     }
 
-    /// Loads of used leaves followed by one `let` per live interior node.
+    /// Loads of used leaves followed by one `let` per live interior node. A product with a
+    /// constant is emitted as `x.scale(c)` (real scaling: 2 multiplications in complex
+    /// arithmetic instead of a full complex product); constants are loaded only where they
+    /// are used otherwise.
     fn body(&self, outputs: &[NodeId]) -> TokenStream {
         let live = self.dag.reachable(outputs);
+        let mut const_loaded = vec![false; self.dag.nodes.len()];
+        for &o in outputs {
+            const_loaded[o.0 as usize] = true;
+        }
+        for (i, node) in self.dag.nodes.iter().enumerate() {
+            match node {
+                _ if !live[i] => {}
+                Node::Mul(a, b) if self.dag.const_value(*a).is_some() || self.dag.const_value(*b).is_some() => {}
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+                    const_loaded[a.0 as usize] = true;
+                    const_loaded[b.0 as usize] = true;
+                }
+                Node::Neg(a) => const_loaded[a.0 as usize] = true,
+                _ => {}
+            }
+        }
         let mut loads = Vec::new();
         let mut lets = Vec::new();
         for (i, node) in self.dag.nodes.iter().enumerate() {
@@ -104,11 +123,21 @@ impl Renderer<'_> {
                     };
                     loads.push(quote!(let #ident = #src;));
                 }
+                Node::Const(_) if !const_loaded[i] => {}
                 Node::Const(bits) => {
                     // Hoisted once per function.
                     let lit = f64_lit(f64::from_bits(*bits));
                     let c = format_ident!("k{}", id.0);
                     loads.push(quote!(let #c: S = S::from_real(#lit);));
+                }
+                Node::Mul(a, b) if self.dag.const_value(*a).or(self.dag.const_value(*b)).is_some() => {
+                    let (c, x) = match self.dag.const_value(*a) {
+                        Some(c) => (c, *b),
+                        None => (self.dag.const_value(*b).unwrap_or(1.0), *a),
+                    };
+                    let (lit, x) = (f64_lit(c), self.name(x));
+                    let t = format_ident!("t{}", id.0);
+                    lets.push(quote!(let #t = #x.scale(#lit);));
                 }
                 Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
                     let (a, b) = (self.name(*a), self.name(*b));

@@ -10,6 +10,7 @@ pub mod all_roots;
 pub mod homotopy;
 pub mod monodromy;
 pub mod problem;
+pub mod ransac;
 pub mod regressor;
 pub mod scalar;
 pub mod simulator;

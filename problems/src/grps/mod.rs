@@ -1,6 +1,10 @@
 //! Generalized relative pose and scale (GRPS): declaration, scene sampler, geometric simulator.
+pub mod features;
 pub mod geometry;
+pub mod ransac;
+pub mod refine;
 pub mod scene;
+pub mod solver;
 mod system;
 
 pub use system::grps::*;

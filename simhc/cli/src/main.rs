@@ -1,5 +1,7 @@
 //! The `simhc` command: benchmarks of the built-in problems, solving from files, training.
 
+mod grps;
+mod plots;
 mod stats;
 mod tracker_bench;
 mod upnp;
@@ -19,6 +21,8 @@ struct Cli {
 enum ProblemName {
     /// Generalized absolute pose (UPnP).
     Upnp,
+    /// Generalized relative pose and scale (GRPS).
+    Grps,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -27,6 +31,8 @@ enum BenchName {
     Upnp,
     /// The tracker itself: step control, predictor and homotopy on UPnP and GRPS paths.
     Tracker,
+    /// Generalized relative pose and scale: stability, start errors, noise, RANSAC, figures.
+    Grps,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -61,6 +67,8 @@ enum Command {
         /// `bench tracker`: rotation error of the starts in degrees.
         #[arg(long, default_value_t = 20.0)]
         start_angle: f64,
+        #[command(flatten)]
+        grps: grps::GrpsArgs,
     },
     /// Train a built-in problem's regressor on simulated scenes and write its weights.
     Train {
@@ -166,6 +174,50 @@ fn run(cli: Cli) -> Result<(), String> {
                     println!("median time, All-roots HC / Pred Initial + Simulator HC: {ratio:.1}x");
                 }
             }
+            Ok(())
+        }
+        Command::Bench { problem: BenchName::Grps, trials, seed, trials_file, dump_trials, json, grps: args, .. } => {
+            let (scenes, source) = match &trials_file {
+                Some(path) => {
+                    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+                    let scenes = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+                    (scenes, format!("file {}", path.display()))
+                }
+                None => (grps::sample_trials(trials, seed)?, format!("sampled, seed {seed}")),
+            };
+            if let Some(path) = &dump_trials {
+                let text = serde_json::to_string(&scenes).map_err(|e| e.to_string())?;
+                std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+            }
+            if !json {
+                println!("simhc bench grps: {} trials ({source}), seed {seed}, single thread", scenes.len());
+            }
+            let report = grps::bench(&scenes, seed, source, &args, !json)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?);
+            } else {
+                print!("{}", grps::text(&report));
+            }
+            Ok(())
+        }
+        Command::Train { problem: ProblemName::Grps, out, seed, samples, epochs } => {
+            let mut config = simhc_regressor::grps::GrpsTrainConfig::default();
+            if let Some(seed) = seed {
+                config.train.seed = seed;
+            }
+            if let Some(n) = samples {
+                config.train_samples = n;
+            }
+            if let Some(e) = epochs {
+                config.train.epochs = e;
+            }
+            let out = out.unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../problems/weights"));
+            simhc_regressor::grps::train_and_write(&out, &config).map_err(|e| e.to_string())
+        }
+        Command::Solve { problem: ProblemName::Grps, input } => {
+            let text = std::fs::read_to_string(&input).map_err(|e| format!("{}: {e}", input.display()))?;
+            let out = grps::solve_file(&text)?;
+            println!("{}", serde_json::to_string_pretty(&out).map_err(|e| e.to_string())?);
             Ok(())
         }
         Command::Train { problem: ProblemName::Upnp, out, seed, samples, epochs } => {

@@ -8,12 +8,14 @@
 //!   validation;
 //! - [`inference`]: the shipped weights, batch-1 and batched prediction, and the export to the
 //!   runtime's allocation-free [`simhc::regressor::FoldedNetwork`];
-//! - [`upnp`]: UPnP training data and [`upnp::train_upnp`].
+//! - [`upnp`]: UPnP training data and [`upnp::train_upnp`];
+//! - [`grps`]: GRPS training data (6D rotation, translation, log scale) and [`grps::train_grps`].
 //!
 //! Train the shipped weights with
 //! `cargo run --release -p simhc-regressor --example train_upnp`.
 
 pub mod data;
+pub mod grps;
 pub mod inference;
 pub mod model;
 pub mod training;

@@ -185,6 +185,43 @@ pub fn train(
     valid: &InMemoryDataset,
     config: &TrainConfig,
 ) -> (PoseRegressor, TrainReport) {
+    let (model, run) = train_with_loss(model_config, train, config, quaternion_loss);
+    let valid_stats = evaluate(&model, valid);
+    let report = TrainReport {
+        seed: config.seed,
+        train_samples: train.len(),
+        epochs: config.epochs,
+        steps: run.steps,
+        train_seconds: run.train_seconds,
+        epoch_losses: run.epoch_losses,
+        valid: valid_stats,
+    };
+    (model, report)
+}
+
+/// What [`train_with_loss`] did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainRun {
+    /// Optimizer steps run.
+    pub steps: usize,
+    /// Wall-clock training time in seconds.
+    pub train_seconds: f64,
+    /// Mean training loss of every epoch.
+    pub epoch_losses: Vec<f64>,
+}
+
+/// The training loop of [`train`] with any loss `loss(prediction [B, outputs], target [B, T])`:
+/// Adam, cosine learning rate, seeded initialization and shuffling. Returns the model in
+/// inference mode.
+pub fn train_with_loss<L>(
+    model_config: &RegressorConfig,
+    train: &InMemoryDataset,
+    config: &TrainConfig,
+    loss_fn: L,
+) -> (PoseRegressor, TrainRun)
+where
+    L: Fn(Tensor<2>, Tensor<2>) -> Tensor<1>,
+{
     assert!(
         config.batch_size >= 2,
         "batch norm needs batches of at least 2"
@@ -222,7 +259,7 @@ pub fn train(
             let lr = config.final_learning_rate
                 + (config.learning_rate - config.final_learning_rate) * cosine;
             let (x, y) = train.batch(batch, &device);
-            let loss = quaternion_loss(model.forward(x), y);
+            let loss = loss_fn(model.forward(x), y);
             loss_sum += loss.clone().into_scalar::<f32>() as f64;
             let grads = GradientsParams::from_grads(loss.backward(), &model);
             model = optim.step(lr, model, grads);
@@ -239,16 +276,10 @@ pub fn train(
     }
     bar.finish_and_clear();
     let train_seconds = start.elapsed().as_secs_f64();
-    let model = model.valid();
-    let valid_stats = evaluate(&model, valid);
-    let report = TrainReport {
-        seed: config.seed,
-        train_samples: train.len(),
-        epochs: config.epochs,
+    let run = TrainRun {
         steps: step,
         train_seconds,
         epoch_losses,
-        valid: valid_stats,
     };
-    (model, report)
+    (model.valid(), run)
 }

@@ -1,0 +1,723 @@
+//! `simhc bench grps` (numerical stability, success vs start error, noise resilience, RANSAC,
+//! figures), `simhc solve grps` and the settings of `simhc train grps`.
+
+use crate::plots::{log10_histogram, write_figure, Panel, Series};
+use crate::stats::{mean, median, MethodRecord, Outcome, Summary, Thresholds};
+use nalgebra::SVector;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use simhc::all_roots::AllRootsOptions;
+use simhc::ransac::{ransac, RansacOptions};
+use simhc_problems::grps::ransac::GrpsEstimator;
+use simhc_problems::grps::refine::{lm_polynomial, LmOptions};
+use simhc_problems::grps::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
+use simhc_problems::grps::solver::{GrpsPose, GrpsSolveError, GrpsSolveReport, GrpsSolver, GrpsSolverOptions, SimulatorKind};
+use simhc_problems::grps::{self, Grps7, Grps8};
+use simhc_problems::metrics::{
+    perturb_scale, perturb_translation, random_rotation_perturbation, rotation_error_deg, scale_error_pct, translation_error_pct,
+};
+use simhc_problems::start_systems::{best_real_solution, solve_grps7, Selection};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// The paper's success criterion for GRPS: `E_R < 2 deg`, `E_t < 5 %`, `E_s < 5 %`.
+pub const THRESHOLDS: Thresholds = Thresholds { rotation_deg: 2.0, translation_pct: Some(5.0), scale_pct: Some(5.0) };
+
+/// Experiments of `bench grps`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum Experiment {
+    /// Numerical stability: every method on the same noise-free trials, error histograms.
+    Stability,
+    /// Success vs start error (ground truth perturbed by 5..45 deg) per simulator and for
+    /// Gauss-Newton.
+    Starts,
+    /// Noise resilience: 0.2..1.0 px, 1 / 3 / 5 cameras per view.
+    Noise,
+    /// RANSAC: 200 correspondences, 5 cameras, 10..40 % outliers.
+    Ransac,
+    /// All of the above.
+    All,
+}
+
+/// Options of `bench grps` (ignored by the other benchmarks).
+#[derive(clap::Args, Debug, Clone)]
+pub struct GrpsArgs {
+    /// bench grps: experiment to run (repeat the flag for several; default all).
+    #[arg(long = "experiment", value_enum)]
+    pub experiments: Vec<Experiment>,
+    /// bench grps: run All-roots HC (about 0.1 s per solve) on the first N stability trials.
+    #[arg(long, default_value_t = 200)]
+    pub all_roots: usize,
+    /// bench grps: folder of the figures (PNG and SVG).
+    #[arg(long, default_value = "target/figures")]
+    pub figures: PathBuf,
+    /// bench grps: trials per noise level and camera count.
+    #[arg(long, default_value_t = 300)]
+    pub noise_trials: usize,
+    /// bench grps: RANSAC runs per outlier ratio.
+    #[arg(long, default_value_t = 300)]
+    pub ransac_trials: usize,
+    /// bench grps: correspondences per RANSAC sample (7: minimal, 8: overdetermined).
+    #[arg(long, default_value_t = 7)]
+    pub ransac_sample: usize,
+}
+
+impl GrpsArgs {
+    fn runs(&self, e: Experiment) -> bool {
+        self.experiments.is_empty() || self.experiments.contains(&Experiment::All) || self.experiments.contains(&e)
+    }
+}
+
+/// Samples `n` seeded noise-free 8-point trials (3 cameras per view).
+pub fn sample_trials(n: usize, seed: u64) -> Result<Vec<GrpsScene>, String> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let config = GrpsSceneConfig::default();
+    (0..n).map(|_| config.sample(&mut rng).map_err(|e| e.to_string())).collect()
+}
+
+fn us(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e6
+}
+
+fn outcome(pose: &GrpsPose, scene: &GrpsScene, micros: f64, split: Option<[f64; 3]>) -> Outcome {
+    Outcome {
+        rotation_deg: Some(rotation_error_deg(&pose.rotation, &scene.rotation)),
+        translation_pct: Some(translation_error_pct(&pose.translation, &scene.translation)),
+        scale_pct: Some(scale_error_pct(pose.scale, scene.scale)),
+        micros,
+        split,
+    }
+}
+
+fn failed(micros: f64) -> Outcome {
+    Outcome { micros, ..Outcome::default() }
+}
+
+fn ok(o: &Outcome) -> bool {
+    o.rotation_deg.is_some_and(|e| e < THRESHOLDS.rotation_deg)
+        && o.translation_pct.is_some_and(|e| e < 5.0)
+        && o.scale_pct.is_some_and(|e| e < 5.0)
+}
+
+/// The pose a solve returned: validated, or flagged (`NotValidated` carries the best end point).
+fn returned(result: &Result<GrpsSolveReport, GrpsSolveError>) -> Option<(GrpsSolveReport, bool)> {
+    match result {
+        Ok(r) => Some((*r, false)),
+        Err(GrpsSolveError::NotValidated(b)) => Some((**b, true)),
+        Err(_) => None,
+    }
+}
+
+/// A solver row: outcomes plus the count of flagged (not validated) results and attempts.
+struct SolverRow {
+    record: MethodRecord,
+    flagged: usize,
+    attempts: Vec<f64>,
+}
+
+impl SolverRow {
+    fn new(name: &str) -> Self {
+        Self { record: MethodRecord::new(name), flagged: 0, attempts: Vec::new() }
+    }
+
+    fn push(&mut self, result: Result<GrpsSolveReport, GrpsSolveError>, scene: &GrpsScene, micros: f64) {
+        match returned(&result) {
+            Some((r, flagged)) => {
+                self.flagged += usize::from(flagged);
+                self.attempts.push(r.attempts as f64);
+                let split = [us(r.times.regressor), us(r.times.simulator), us(r.times.tracking)];
+                self.record.outcomes.push(outcome(&r.pose, scene, micros, Some(split)));
+            }
+            None => self.record.outcomes.push(failed(micros)),
+        }
+    }
+}
+
+/// Notes of a stability row beyond [`Summary`].
+#[derive(Debug, Clone, Serialize)]
+pub struct RowNotes {
+    /// Row label.
+    pub method: String,
+    /// Results returned flagged (no end point passed validation).
+    pub flagged: usize,
+    /// Mean attempts per solve.
+    pub attempts_mean: f64,
+    /// Largest number of attempts.
+    pub attempts_max: f64,
+}
+
+/// The numerical-stability section.
+#[derive(Debug, Serialize)]
+pub struct StabilityReport {
+    /// Rows (same trials; All-roots on the first `all_roots_trials`).
+    pub rows: Vec<Summary>,
+    /// Flag and attempt counts of the solver rows.
+    pub notes: Vec<RowNotes>,
+    /// Trials of the All-roots row.
+    pub all_roots_trials: usize,
+}
+
+/// One cell of the success-vs-start-error table.
+#[derive(Debug, Clone, Serialize)]
+pub struct StartCell {
+    /// Method.
+    pub method: String,
+    /// Start rotation error (degrees).
+    pub start_deg: f64,
+    /// Success (percent).
+    pub success_pct: f64,
+    /// Median time per solve (microseconds).
+    pub time_median_us: f64,
+}
+
+/// One row of the noise table.
+#[derive(Debug, Clone, Serialize)]
+pub struct NoiseRow {
+    /// Cameras per view.
+    pub cameras: usize,
+    /// Noise (pixels).
+    pub noise_px: f64,
+    /// Trials.
+    pub trials: usize,
+    /// Typed errors (e.g. a single camera pair: scale unobservable).
+    pub errors: usize,
+    /// The most common typed error, if any.
+    pub error: Option<String>,
+    /// Success (percent).
+    pub success_pct: f64,
+    /// Median errors.
+    pub rotation_median_deg: f64,
+    /// Median translation error (percent).
+    pub translation_median_pct: f64,
+    /// Median scale error (percent).
+    pub scale_median_pct: f64,
+    /// Median time per solve (microseconds).
+    pub time_median_us: f64,
+}
+
+/// One row of the RANSAC table.
+#[derive(Debug, Clone, Serialize)]
+pub struct RansacRow {
+    /// Outlier ratio.
+    pub outlier_ratio: f64,
+    /// Runs.
+    pub trials: usize,
+    /// Success with the paper's RANSAC criterion (`E_R < 2 deg`), percent.
+    pub success_pct: f64,
+    /// Success with all three thresholds, percent.
+    pub success_all_pct: f64,
+    /// Mean errors over the successful runs (as the paper).
+    pub rotation_mean_deg: f64,
+    /// Mean translation error (percent).
+    pub translation_mean_pct: f64,
+    /// Mean scale error (percent).
+    pub scale_mean_pct: f64,
+    /// Mean iterations.
+    pub iterations_mean: f64,
+    /// Mean time per run (milliseconds).
+    pub time_mean_ms: f64,
+    /// Median time per run (milliseconds).
+    pub time_median_ms: f64,
+}
+
+/// The benchmark's JSON document.
+#[derive(Debug, Serialize)]
+pub struct BenchReport {
+    /// Problem.
+    pub problem: &'static str,
+    /// Seed.
+    pub seed: u64,
+    /// Stability / start trials.
+    pub trials: usize,
+    /// Where the trials came from.
+    pub source: String,
+    /// Success criterion.
+    pub thresholds: Thresholds,
+    /// Numerical stability.
+    pub stability: Option<StabilityReport>,
+    /// Success vs start error.
+    pub starts: Vec<StartCell>,
+    /// Noise resilience.
+    pub noise: Vec<NoiseRow>,
+    /// RANSAC.
+    pub ransac: Vec<RansacRow>,
+    /// RANSAC sample size.
+    pub ransac_sample: usize,
+    /// Figures written.
+    pub figures: Vec<PathBuf>,
+}
+
+fn solver(options: GrpsSolverOptions) -> Result<GrpsSolver, String> {
+    Ok(GrpsSolver::new().map_err(|e| format!("loading the shipped regressor: {e}"))?.with_options(options))
+}
+
+fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let r = f();
+    (r, us(t.elapsed()))
+}
+
+/// Runs the selected experiments.
+pub fn bench(trials: &[GrpsScene], seed: u64, source: String, args: &GrpsArgs, progress: bool) -> Result<BenchReport, String> {
+    let mut report = BenchReport {
+        problem: "grps",
+        seed,
+        trials: trials.len(),
+        source,
+        thresholds: THRESHOLDS,
+        stability: None,
+        starts: Vec::new(),
+        noise: Vec::new(),
+        ransac: Vec::new(),
+        ransac_sample: args.ransac_sample,
+        figures: Vec::new(),
+    };
+    if args.runs(Experiment::Stability) {
+        report.stability = Some(stability(trials, args, progress, &mut report.figures)?);
+    }
+    if args.runs(Experiment::Starts) {
+        report.starts = starts(trials, seed, progress)?;
+    }
+    if args.runs(Experiment::Noise) {
+        report.noise = noise(seed, args, progress, &mut report.figures)?;
+    }
+    if args.runs(Experiment::Ransac) {
+        report.ransac = ransac_bench(seed, args, progress)?;
+    }
+    Ok(report)
+}
+
+fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>) -> Result<StabilityReport, String> {
+    use SimulatorKind::{Generic, Geometric};
+    let predictor = solver(GrpsSolverOptions::default())?;
+    let single_geo = solver(GrpsSolverOptions::single_path(Geometric))?;
+    let single_gen = solver(GrpsSolverOptions::single_path(Generic))?;
+    let retry_geo = solver(GrpsSolverOptions::with_simulator(Geometric))?;
+    let retry_gen = solver(GrpsSolverOptions::with_simulator(Generic))?;
+    let mut pred = MethodRecord::new("Pred Initial");
+    let mut pred_lm = MethodRecord::new("Pred + LM (8 pts)");
+    let mut pred_gn = MethodRecord::new("Pred + Gauss-Newton (8 pts)");
+    let mut rows = [
+        SolverRow::new("Sim HC 7 pts, geometric, 1 path"),
+        SolverRow::new("Sim HC 7 pts, generic, 1 path"),
+        SolverRow::new("Sim HC 8 pts, geometric, 1 path"),
+        SolverRow::new("Sim HC 8 pts, generic, 1 path"),
+        SolverRow::new("Sim HC 7 pts, geometric + retries"),
+        SolverRow::new("Sim HC 8 pts, geometric + retries"),
+        SolverRow::new("Sim HC 8 pts, generic + retries"),
+    ];
+    let all_roots_trials = args.all_roots.min(trials.len());
+    let mut all_roots = MethodRecord::new("All-roots HC 7 pts (1 thread)");
+    let all_roots_options = AllRootsOptions::default();
+    let bar = crate::progress_bar(trials.len() as u64, progress);
+    for (i, scene) in trials.iter().enumerate() {
+        let c8: &[GrpsCorrespondence] = &scene.correspondences[..8.min(scene.correspondences.len())];
+        let c7 = &c8[..7.min(c8.len())];
+
+        let (p, micros) = timed(|| predictor.predict(c8));
+        pred.outcomes.push(match &p {
+            Ok(p) => outcome(p, scene, micros, None),
+            Err(_) => failed(micros),
+        });
+        let lm = |x0: SVector<f64, 8>| -> Option<GrpsPose> {
+            let rows = grps::rows_of::<8>(c8)?;
+            let r = lm_polynomial::<Grps8, 9, 96>(&x0, &Grps8::params(&rows), &LmOptions::default());
+            GrpsPose::from_unknowns(&r.x)
+        };
+        let (r, micros) = timed(|| predictor.predict(c8).ok().and_then(|p| lm(p.unknowns())));
+        pred_lm.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
+        let (r, micros) = timed(|| {
+            let p = predictor.predict(c8).ok()?;
+            let rows = grps::rows_of::<8>(c8)?;
+            let n = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&p.unknowns(), &Grps8::params(&rows), &predictor.options.newton).ok()?;
+            GrpsPose::from_unknowns(&n.x)
+        });
+        pred_gn.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
+
+        let solvers: [(&GrpsSolver, &[GrpsCorrespondence]); 7] =
+            [(&single_geo, c7), (&single_gen, c7), (&single_geo, c8), (&single_gen, c8), (&retry_geo, c7), (&retry_geo, c8), (&retry_gen, c8)];
+        for (row, (s, c)) in rows.iter_mut().zip(solvers) {
+            let (r, micros) = timed(|| s.solve_report(c));
+            row.push(r, scene, micros);
+        }
+
+        if i < all_roots_trials {
+            let x_gt = grps::unknowns_of(&scene.rotation, &scene.translation, scene.scale);
+            let (best, micros) = timed(|| {
+                let rows = grps::rows_of::<7>(c7)?;
+                let result = solve_grps7(&Grps7::params(&rows), &all_roots_options);
+                best_real_solution(&result, Selection::ClosestTo(&x_gt))
+            });
+            all_roots.outcomes.push(match best.and_then(|s| GrpsPose::from_unknowns(&s.x)) {
+                Some(p) => outcome(&p, scene, micros, None),
+                None => failed(micros),
+            });
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    let mut records = vec![pred, pred_lm, pred_gn];
+    let mut notes = Vec::new();
+    for row in rows {
+        notes.push(RowNotes {
+            method: row.record.name.clone(),
+            flagged: row.flagged,
+            attempts_mean: mean(&row.attempts),
+            attempts_max: row.attempts.iter().copied().fold(0.0, f64::max),
+        });
+        records.push(row.record);
+    }
+    if all_roots_trials > 0 {
+        records.push(all_roots);
+    }
+
+    // Figure: log10 error histograms of the main rows.
+    let shown = ["Pred Initial", "Pred + LM (8 pts)", "Pred + Gauss-Newton (8 pts)", "Sim HC 7 pts, geometric, 1 path", "Sim HC 8 pts, geometric, 1 path", "Sim HC 8 pts, geometric + retries", "All-roots HC 7 pts (1 thread)"];
+    let panel = |title: &str, unit: &str, get: fn(&Outcome) -> Option<f64>| Panel {
+        title: title.to_string(),
+        x_label: format!("log10 error ({unit})"),
+        y_label: "trials (%)".to_string(),
+        series: records
+            .iter()
+            .filter(|r| shown.contains(&r.name.as_str()))
+            .map(|r| {
+                let v: Vec<f64> = r.outcomes.iter().map(|o| get(o).unwrap_or(f64::INFINITY)).collect();
+                (r.name.clone(), log10_histogram(&v, -13.0, 3.0, 32))
+            })
+            .collect::<Vec<Series>>(),
+    };
+    let panels = [
+        panel("rotation error", "deg", |o| o.rotation_deg),
+        panel("translation error", "%", |o| o.translation_pct),
+        panel("scale error", "%", |o| o.scale_pct),
+    ];
+    figures.extend(write_figure(&args.figures.join("grps_stability"), "GRPS numerical stability (noise-free)", &panels, true)?);
+
+    Ok(StabilityReport { rows: records.iter().map(|m| m.summary(&THRESHOLDS)).collect(), notes, all_roots_trials })
+}
+
+/// Start angles of the success-vs-start-error table.
+pub const START_ANGLES: [f64; 5] = [5.0, 10.0, 20.0, 30.0, 45.0];
+
+fn starts(trials: &[GrpsScene], seed: u64, progress: bool) -> Result<Vec<StartCell>, String> {
+    use SimulatorKind::{Generic, Geometric};
+    let methods: [(&str, Option<GrpsSolver>, usize); 5] = [
+        ("HC 8 pts, geometric", Some(solver(GrpsSolverOptions::single_path(Geometric))?), 8),
+        ("HC 8 pts, generic", Some(solver(GrpsSolverOptions::single_path(Generic))?), 8),
+        ("Gauss-Newton 8 pts", None, 8),
+        ("HC 7 pts, geometric", Some(solver(GrpsSolverOptions::single_path(Geometric))?), 7),
+        ("HC 7 pts, generic", Some(solver(GrpsSolverOptions::single_path(Generic))?), 7),
+    ];
+    let newton = GrpsSolverOptions::default().newton;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(2));
+    let mut cells = Vec::new();
+    let bar = crate::progress_bar((START_ANGLES.len() * trials.len()) as u64, progress);
+    for angle in START_ANGLES {
+        let mut oks = vec![0usize; methods.len()];
+        let mut times: Vec<Vec<f64>> = vec![Vec::new(); methods.len()];
+        for scene in trials {
+            let start = GrpsPose {
+                rotation: random_rotation_perturbation(&scene.rotation, angle, &mut rng),
+                translation: perturb_translation(&scene.translation, 0.1, &mut rng),
+                scale: perturb_scale(scene.scale, 0.1, &mut rng),
+            };
+            for (k, (_, s, n)) in methods.iter().enumerate() {
+                let c = &scene.correspondences[..*n];
+                let (pose, micros) = match s {
+                    Some(s) => {
+                        let (r, micros) = timed(|| s.solve_from(c, &start));
+                        (returned(&r).map(|(r, _)| r.pose), micros)
+                    }
+                    None => timed(|| {
+                        let rows = grps::rows_of::<8>(c)?;
+                        let r = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&start.unknowns(), &Grps8::params(&rows), &newton).ok()?;
+                        GrpsPose::from_unknowns(&r.x)
+                    }),
+                };
+                times[k].push(micros);
+                if pose.is_some_and(|p| ok(&outcome(&p, scene, 0.0, None))) {
+                    oks[k] += 1;
+                }
+            }
+            bar.inc(1);
+        }
+        for (k, (name, _, _)) in methods.iter().enumerate() {
+            cells.push(StartCell {
+                method: name.to_string(),
+                start_deg: angle,
+                success_pct: 100.0 * oks[k] as f64 / trials.len().max(1) as f64,
+                time_median_us: median(&times[k]),
+            });
+        }
+    }
+    bar.finish_and_clear();
+    Ok(cells)
+}
+
+/// Noise levels (pixels) and cameras per view of the noise experiment.
+pub const NOISE_LEVELS: [f64; 5] = [0.2, 0.4, 0.6, 0.8, 1.0];
+/// Cameras per view of the noise experiment.
+pub const NOISE_CAMERAS: [usize; 3] = [1, 3, 5];
+
+fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>) -> Result<Vec<NoiseRow>, String> {
+    let mut rows = Vec::new();
+    let bar = crate::progress_bar((NOISE_LEVELS.len() * NOISE_CAMERAS.len() * args.noise_trials) as u64, progress);
+    for cameras in NOISE_CAMERAS {
+        for noise_px in NOISE_LEVELS {
+            let config = GrpsSceneConfig { cameras_per_view: cameras, noise_px, ..GrpsSceneConfig::default() };
+            let s = solver(GrpsSolverOptions::for_noise(noise_px, config.focal_px))?;
+            let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(100 + cameras as u64));
+            let mut record = MethodRecord::new("noise");
+            let mut errors = std::collections::BTreeMap::<String, usize>::new();
+            for _ in 0..args.noise_trials {
+                let scene = config.sample(&mut rng).map_err(|e| e.to_string())?;
+                let (r, micros) = timed(|| s.solve_report(&scene.correspondences));
+                match returned(&r) {
+                    Some((r, _)) => record.outcomes.push(outcome(&r.pose, &scene, micros, None)),
+                    None => {
+                        if let Err(e) = &r {
+                            *errors.entry(e.to_string()).or_default() += 1;
+                        }
+                        record.outcomes.push(failed(micros));
+                    }
+                }
+                bar.inc(1);
+            }
+            let sm = record.summary(&THRESHOLDS);
+            rows.push(NoiseRow {
+                cameras,
+                noise_px,
+                trials: args.noise_trials,
+                errors: sm.failures,
+                error: errors.into_iter().max_by_key(|e| e.1).map(|e| e.0),
+                success_pct: sm.success_pct,
+                rotation_median_deg: sm.rotation_median_deg,
+                translation_median_pct: sm.translation_median_pct,
+                scale_median_pct: sm.scale_median_pct.unwrap_or(f64::NAN),
+                time_median_us: sm.time_median_us,
+            });
+        }
+    }
+    bar.finish_and_clear();
+    let panel = |title: &str, unit: &str, get: fn(&NoiseRow) -> f64| Panel {
+        title: title.to_string(),
+        x_label: "noise (px)".to_string(),
+        y_label: format!("median error ({unit})"),
+        series: NOISE_CAMERAS
+            .iter()
+            .filter(|&&c| rows.iter().any(|r| r.cameras == c && get(r).is_finite()))
+            .map(|&c| (format!("{c} cameras per view"), rows.iter().filter(|r| r.cameras == c).map(|r| (r.noise_px, get(r))).collect()))
+            .collect(),
+    };
+    let panels = [
+        panel("rotation", "deg", |r| r.rotation_median_deg),
+        panel("translation", "%", |r| r.translation_median_pct),
+        panel("scale", "%", |r| r.scale_median_pct),
+    ];
+    figures.extend(write_figure(&args.figures.join("grps_noise"), "GRPS noise resilience (Simulator HC, 8 pts)", &panels, false)?);
+    Ok(rows)
+}
+
+/// Outlier ratios of the RANSAC experiment.
+pub const OUTLIER_RATIOS: [f64; 4] = [0.1, 0.2, 0.3, 0.4];
+
+/// The RANSAC scene: 200 correspondences between 5 cameras per view, noise uniform in
+/// `[-2, 2]` px on both image coordinates at `f = 800` (the sampler's noise model draws each
+/// tangent coordinate in `[-n/sqrt 2, n/sqrt 2]`, so `n = 2 sqrt 2`), and
+/// `round(ratio * 200)` outliers: correspondences (chosen uniformly) whose second-view ray
+/// (bearing and origin) is replaced by that of another, random correspondence (a mismatch).
+pub fn ransac_scene(ratio: f64, rng: &mut ChaCha8Rng) -> Result<(GrpsScene, Vec<bool>), String> {
+    let config = GrpsSceneConfig { points: 200, cameras_per_view: 5, noise_px: 2.0 * std::f64::consts::SQRT_2, focal_px: 800.0 };
+    let mut scene = config.sample(rng).map_err(|e| e.to_string())?;
+    let n = scene.correspondences.len();
+    let mut idx: Vec<usize> = (0..n).collect();
+    let outliers = (ratio * n as f64).round() as usize;
+    let original = scene.correspondences.clone();
+    let mut is_outlier = vec![false; n];
+    for k in 0..outliers {
+        let j = rng.random_range(k..n);
+        idx.swap(k, j);
+        let i = idx[k];
+        let mut other = rng.random_range(0..n - 1);
+        if other >= i {
+            other += 1;
+        }
+        scene.correspondences[i].fp = original[other].fp;
+        scene.correspondences[i].vp = original[other].vp;
+        is_outlier[i] = true;
+    }
+    Ok((scene, is_outlier))
+}
+
+fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<RansacRow>, String> {
+    let minimal = solver(GrpsSolverOptions::for_ransac())?;
+    let estimator = GrpsEstimator::new(minimal, args.ransac_sample);
+    let mut rows = Vec::new();
+    let bar = crate::progress_bar((OUTLIER_RATIOS.len() * args.ransac_trials) as u64, progress);
+    for ratio in OUTLIER_RATIOS {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(200 + (ratio * 100.0) as u64));
+        let (mut succ, mut succ_all) = (0usize, 0usize);
+        let (mut er, mut et, mut es, mut iters, mut times) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for trial in 0..args.ransac_trials {
+            let (scene, _) = ransac_scene(ratio, &mut rng)?;
+            let options = RansacOptions { seed: seed.wrapping_mul(1_000_003).wrapping_add(trial as u64), ..RansacOptions::default() };
+            let t = Instant::now();
+            let result = ransac(&estimator, &scene.correspondences, &options);
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            if let Some(r) = result {
+                iters.push(r.iterations as f64);
+                let o = outcome(&r.model, &scene, 0.0, None);
+                if o.rotation_deg.is_some_and(|e| e < 2.0) {
+                    succ += 1;
+                    er.push(o.rotation_deg.unwrap_or(f64::NAN));
+                    et.push(o.translation_pct.unwrap_or(f64::NAN));
+                    es.push(o.scale_pct.unwrap_or(f64::NAN));
+                }
+                succ_all += usize::from(ok(&o));
+            } else {
+                iters.push(options.max_iterations as f64);
+            }
+            bar.inc(1);
+        }
+        let n = args.ransac_trials.max(1) as f64;
+        rows.push(RansacRow {
+            outlier_ratio: ratio,
+            trials: args.ransac_trials,
+            success_pct: 100.0 * succ as f64 / n,
+            success_all_pct: 100.0 * succ_all as f64 / n,
+            rotation_mean_deg: mean(&er),
+            translation_mean_pct: mean(&et),
+            scale_mean_pct: mean(&es),
+            iterations_mean: mean(&iters),
+            time_mean_ms: mean(&times),
+            time_median_ms: median(&times),
+        });
+    }
+    bar.finish_and_clear();
+    Ok(rows)
+}
+
+/// The report as text tables.
+pub fn text(report: &BenchReport) -> String {
+    let mut out = String::new();
+    if let Some(s) = &report.stability {
+        out.push_str(&format!("\nNumerical stability, noise-free, {} trials (All-roots HC on the first {}):\n", report.trials, s.all_roots_trials));
+        out.push_str(&crate::stats::table(&s.rows));
+        out.push_str("success: E_R < 2 deg, E_t < 5 %, E_s < 5 %; errors over returned poses (flagged ones included); times in microseconds per solve, all retries included\n");
+        for n in &s.notes {
+            out.push_str(&format!("  {:<34} flagged (not validated) {:>4}, attempts mean {:.2}, max {}\n", n.method, n.flagged, n.attempts_mean, n.attempts_max));
+        }
+        if let Some(ratio) = crate::stats::median_time_ratio(&s.rows, "All-roots HC 7 pts (1 thread)", "Sim HC 8 pts, geometric + retries") {
+            out.push_str(&format!("median time, All-roots HC / Sim HC 8 pts geometric + retries: {ratio:.0}x\n"));
+        }
+    }
+    if !report.starts.is_empty() {
+        out.push_str(&format!("\nSuccess (%) vs start error: start = ground truth rotated by the angle, t and s off by 10 %; one path, no retries; {} trials\n", report.trials));
+        let methods: Vec<&str> = {
+            let mut m: Vec<&str> = Vec::new();
+            for c in &report.starts {
+                if !m.contains(&c.method.as_str()) {
+                    m.push(&c.method);
+                }
+            }
+            m
+        };
+        out.push_str(&format!("{:>8}", "start"));
+        for m in &methods {
+            out.push_str(&format!(" {m:>22}"));
+        }
+        out.push('\n');
+        for a in START_ANGLES {
+            out.push_str(&format!("{:>6} d", a));
+            for m in &methods {
+                let c = report.starts.iter().find(|c| c.start_deg == a && c.method == *m);
+                out.push_str(&format!(" {:>13.1} ({:>4.0} us)", c.map_or(f64::NAN, |c| c.success_pct), c.map_or(f64::NAN, |c| c.time_median_us)));
+            }
+            out.push('\n');
+        }
+    }
+    if !report.noise.is_empty() {
+        out.push_str("\nNoise resilience (Simulator HC 8 pts, geometric + retries):\n");
+        out.push_str(&format!("{:>7} {:>8} {:>7} {:>7} {:>8} {:>9} {:>9} {:>9} {:>9}  {}\n", "cameras", "noise px", "trials", "errors", "succ%", "E_R med", "E_t med", "E_s med", "t med us", "typed error"));
+        for r in &report.noise {
+            out.push_str(&format!(
+                "{:>7} {:>8.1} {:>7} {:>7} {:>8.1} {:>9.3} {:>9.3} {:>9.3} {:>9.1}  {}\n",
+                r.cameras,
+                r.noise_px,
+                r.trials,
+                r.errors,
+                r.success_pct,
+                r.rotation_median_deg,
+                r.translation_median_pct,
+                r.scale_median_pct,
+                r.time_median_us,
+                r.error.as_deref().unwrap_or("")
+            ));
+        }
+    }
+    if !report.ransac.is_empty() {
+        out.push_str(&format!(
+            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, <= 200 iterations, 99 % confidence, threshold 0.01, LM on the inliers:\n",
+            report.ransac_sample
+        ));
+        out.push_str(&format!("{:>6} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9}\n", "ratio", "trials", "succ%", "succ all%", "E_R mean", "E_t mean", "E_s mean", "iters", "t mean ms", "t med ms"));
+        for r in &report.ransac {
+            out.push_str(&format!(
+                "{:>5.0}% {:>7} {:>7.1} {:>9.1} {:>9.3} {:>9.3} {:>9.3} {:>8.1} {:>9.2} {:>9.2}\n",
+                100.0 * r.outlier_ratio,
+                r.trials,
+                r.success_pct,
+                r.success_all_pct,
+                r.rotation_mean_deg,
+                r.translation_mean_pct,
+                r.scale_mean_pct,
+                r.iterations_mean,
+                r.time_mean_ms,
+                r.time_median_ms
+            ));
+        }
+        out.push_str("succ%: E_R < 2 deg (the paper's RANSAC criterion); succ all%: also E_t, E_s < 5 %; errors: means over the E_R-successful runs\n");
+    }
+    if !report.figures.is_empty() {
+        out.push_str("\nfigures:");
+        for f in &report.figures {
+            out.push_str(&format!(" {}", f.display()));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// `simhc solve grps --input F`: the pose of the correspondences in a JSON file
+/// (`{"correspondences": [{"f": [..], "v": [..], "fp": [..], "vp": [..]}, ..]}`, or a bare
+/// array of them).
+pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
+    #[derive(serde::Deserialize)]
+    struct Input {
+        correspondences: Vec<GrpsCorrespondence>,
+    }
+    let corrs: Vec<GrpsCorrespondence> = match serde_json::from_str::<Input>(text) {
+        Ok(input) => input.correspondences,
+        Err(_) => serde_json::from_str(text).map_err(|e| format!("invalid input JSON: {e}"))?,
+    };
+    let s = solver(GrpsSolverOptions::default())?;
+    let (report, validated) = match s.solve_report(&corrs) {
+        Ok(r) => (r, true),
+        Err(GrpsSolveError::NotValidated(b)) => (*b, false),
+        Err(e) => return Err(e.to_string()),
+    };
+    let r = report.pose.rotation;
+    let t = report.pose.translation;
+    Ok(serde_json::json!({
+        "rotation": [[r[(0, 0)], r[(0, 1)], r[(0, 2)]], [r[(1, 0)], r[(1, 1)], r[(1, 2)]], [r[(2, 0)], r[(2, 1)], r[(2, 2)]]],
+        "translation": [t.x, t.y, t.z],
+        "scale": report.pose.scale,
+        "convention": "alpha_i f_i + v_i = R (alpha'_i fp_i + s vp_i) + t",
+        "validated": validated,
+        "max_angular_residual": report.validation.max_angle,
+        "behind_camera": report.validation.behind,
+        "attempts": report.attempts,
+    }))
+}

@@ -1,0 +1,290 @@
+//! GRPS training data and the training command (`simhc train grps`).
+//!
+//! Network: [`grps_model`], the UPnP PointNet made deeper, with one head of 10 outputs that are
+//! the paper's three heads concatenated: rotation in the continuous 6D representation (Zhou et
+//! al. 2019), translation, log scale, all in the canonical frames of
+//! [`simhc_problems::grps::features`] (the same function builds the rows at inference).
+//!
+//! Loss ([`grps_loss`]): `|b1 - r1|² + |b2 - r2|²` on the Gram-Schmidt columns of the 6D output
+//! against the true rotation's first two columns, plus `w_t |t~ - t~_gt|²` and
+//! `w_s (ln s~ - ln s~_gt)²`.
+//!
+//! Data ([`sample`]): the paper's scene sampler ([`GrpsSceneConfig`]) with, per scene, a random
+//! number of cameras per view from [`GrpsTrainConfig::cameras`], bearing noise uniform in
+//! `[0, max_noise_px]` for a fraction `noisy_fraction` of the scenes (noise-free otherwise),
+//! 8 correspondences, or 7 for a fraction `seven_fraction` (the 7 rows are padded to 8 by
+//! repeating the last row, which the max-pool ignores, so the network also learns the minimal
+//! case), and with probability 1/2 the views swapped ([`swap_views`]: the same problem seen
+//! from view 2, a free doubling of the data that makes the swapped prediction a meaningful
+//! second hypothesis). Seeds: training scenes from `ChaCha8Rng::seed_from_u64(train.seed)`, in
+//! order; validation scene `i` is the benchmark's (3 cameras, noise-free, 8 points)
+//! `sample_seeded(valid_first_seed + i)`.
+
+use crate::data::{DataError, InMemoryDataset, Sample};
+use crate::model::{PoseRegressor, RegressorConfig};
+use crate::training::{train_with_loss, TrainConfig, TrainRun};
+use burn::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use simhc_problems::grps::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
+use simhc_problems::grps::scene::{GrpsScene, GrpsSceneConfig};
+use simhc_problems::grps::solver::GrpsSolver;
+use simhc_problems::metrics::{rotation_error_deg, scale_error_pct, translation_error_pct};
+use std::time::Instant;
+
+/// The shipped GRPS network: 18 -> 64 -> 128 -> 128 -> 256, max-pool, 256 -> 128 -> 10.
+pub fn grps_model() -> RegressorConfig {
+    RegressorConfig::new(GRPS_ROW_WIDTH, vec![64, 128, 128, 256], vec![256, 128])
+        .with_outputs(GRPS_OUTPUTS)
+        .with_normalize_output(false)
+}
+
+/// Settings of [`train_grps`]; the default is the configuration of the shipped weights.
+#[derive(Debug, Clone)]
+pub struct GrpsTrainConfig {
+    /// Cameras per view, one drawn uniformly per training scene.
+    pub cameras: Vec<usize>,
+    /// Largest bearing noise of the noisy scenes (pixels at `focal_px`).
+    pub max_noise_px: f64,
+    /// Fraction of noisy training scenes.
+    pub noisy_fraction: f64,
+    /// Fraction of 7-correspondence training scenes.
+    pub seven_fraction: f64,
+    /// Weight of the translation loss.
+    pub translation_weight: f64,
+    /// Weight of the log-scale loss.
+    pub scale_weight: f64,
+    /// Network architecture.
+    pub model: RegressorConfig,
+    /// Optimizer settings; `train.seed` also seeds the training scenes.
+    pub train: TrainConfig,
+    /// Number of training scenes (the paper: 64000).
+    pub train_samples: usize,
+    /// Number of validation scenes.
+    pub valid_samples: usize,
+    /// Seed of the first validation scene.
+    pub valid_first_seed: u64,
+}
+
+/// First seed of the validation scenes (disjoint from the benchmark's sampled stream).
+pub const VALID_FIRST_SEED: u64 = 2_000_000;
+
+impl Default for GrpsTrainConfig {
+    fn default() -> Self {
+        Self {
+            cameras: vec![2, 3, 3, 3, 4, 5],
+            max_noise_px: 2.0,
+            noisy_fraction: 0.5,
+            seven_fraction: 0.2,
+            translation_weight: 0.2,
+            scale_weight: 0.5,
+            model: grps_model(),
+            train: TrainConfig { epochs: 12, batch_size: 128, learning_rate: 2e-3, final_learning_rate: 2e-5, seed: 7, progress: true },
+            train_samples: 160_000,
+            valid_samples: 2_000,
+            valid_first_seed: VALID_FIRST_SEED,
+        }
+    }
+}
+
+/// The training sample of a scene: 8 rows (7 padded) and the 10 targets.
+pub fn scene_sample(scene: &GrpsScene) -> Option<Sample> {
+    let corrs = &scene.correspondences;
+    let frame = GrpsFrame::new(corrs)?;
+    let mut rows = vec![0.0f32; GRPS_ROW_WIDTH * 8];
+    let n = corrs.len().min(8);
+    if !frame.rows(&corrs[..n], &mut rows[..GRPS_ROW_WIDTH * n]) {
+        return None;
+    }
+    for k in n..8 {
+        rows.copy_within(GRPS_ROW_WIDTH * (n - 1)..GRPS_ROW_WIDTH * n, GRPS_ROW_WIDTH * k);
+    }
+    let target = frame.target(&scene.rotation, &scene.translation, scene.scale).map(|v| v as f32).to_vec();
+    target.iter().all(|v| v.is_finite()).then_some(Sample { rows, target })
+}
+
+/// One training scene from `rng` (module docs).
+pub fn sample(config: &GrpsTrainConfig, rng: &mut ChaCha8Rng) -> GrpsScene {
+    loop {
+        let cameras = config.cameras[rng.random_range(0..config.cameras.len())];
+        let noisy = rng.random::<f64>() < config.noisy_fraction;
+        let noise_px = if noisy { rng.random_range(0.0..=config.max_noise_px) } else { 0.0 };
+        let points = if rng.random::<f64>() < config.seven_fraction { 7 } else { 8 };
+        let swap = rng.random::<bool>();
+        let scene_config = GrpsSceneConfig { points, cameras_per_view: cameras, noise_px, ..GrpsSceneConfig::default() };
+        let Ok(mut scene) = scene_config.sample(rng) else { continue };
+        if swap {
+            let (r, t, s) = swap_pose(&scene.rotation, &scene.translation, scene.scale);
+            scene = GrpsScene { correspondences: swap_views(&scene.correspondences), rotation: r, translation: t, scale: s };
+        }
+        return scene;
+    }
+}
+
+/// The benchmark's scene configuration (3 cameras, noise-free, 8 points).
+pub fn validation_scene(first_seed: u64, i: usize) -> GrpsScene {
+    GrpsSceneConfig::default().sample_seeded(first_seed + i as u64).expect("valid config")
+}
+
+/// `count` training scenes drawn in order from `ChaCha8Rng::seed_from_u64(seed)`.
+pub fn training_dataset(config: &GrpsTrainConfig, count: usize, seed: u64) -> Result<InMemoryDataset, DataError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    InMemoryDataset::from_fn(count, 8, GRPS_ROW_WIDTH, GRPS_OUTPUTS, |_| loop {
+        if let Some(s) = scene_sample(&sample(config, &mut rng)) {
+            return s;
+        }
+    })
+}
+
+/// The loss of the module docs; `pred` and `target` are `[B, 10]`.
+pub fn grps_loss(pred: Tensor<2>, target: Tensor<2>, translation_weight: f64, scale_weight: f64) -> Tensor<1> {
+    let unit = |v: Tensor<2>| v.clone() / v.square().sum_dim(1).sqrt().clamp_min(1e-6);
+    let a1 = pred.clone().narrow(1, 0, 3);
+    let a2 = pred.clone().narrow(1, 3, 3);
+    let b1 = unit(a1);
+    let b2 = unit(a2.clone() - b1.clone() * (b1.clone() * a2).sum_dim(1));
+    let r1 = target.clone().narrow(1, 0, 3);
+    let r2 = target.clone().narrow(1, 3, 3);
+    let rot = (b1 - r1).square().sum_dim(1) + (b2 - r2).square().sum_dim(1);
+    let tra = (pred.clone().narrow(1, 6, 3) - target.clone().narrow(1, 6, 3)).square().sum_dim(1);
+    let sca = (pred.narrow(1, 9, 1) - target.narrow(1, 9, 1)).square();
+    (rot + tra * translation_weight + sca * scale_weight).mean()
+}
+
+/// Median errors of a pose predictor on scenes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PoseStats {
+    /// Scenes.
+    pub count: usize,
+    /// Median rotation error (degrees).
+    pub rotation_median_deg: f64,
+    /// Percent of rotation errors below 10 / 20 degrees.
+    pub rotation_under_10_pct: f64,
+    /// Percent below 20 degrees.
+    pub rotation_under_20_pct: f64,
+    /// Median translation error (percent).
+    pub translation_median_pct: f64,
+    /// Median scale error (percent).
+    pub scale_median_pct: f64,
+}
+
+impl std::fmt::Display for PoseStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "n={} E_R median {:.2} deg (<10: {:.1}%, <20: {:.1}%), E_t median {:.1}%, E_s median {:.1}%",
+            self.count,
+            self.rotation_median_deg,
+            self.rotation_under_10_pct,
+            self.rotation_under_20_pct,
+            self.translation_median_pct,
+            self.scale_median_pct
+        )
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        v[v.len() / 2]
+    }
+}
+
+/// Errors of the folded `solver`'s prediction on validation scenes `first_seed + i`.
+pub fn evaluate_solver(solver: &GrpsSolver, count: usize, first_seed: u64) -> PoseStats {
+    let (mut er, mut et, mut es) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..count {
+        let scene = validation_scene(first_seed, i);
+        match solver.predict(&scene.correspondences) {
+            Ok(p) => {
+                er.push(rotation_error_deg(&p.rotation, &scene.rotation));
+                et.push(translation_error_pct(&p.translation, &scene.translation));
+                es.push(scale_error_pct(p.scale, scene.scale));
+            }
+            Err(_) => {
+                er.push(180.0);
+                et.push(f64::INFINITY);
+                es.push(f64::INFINITY);
+            }
+        }
+    }
+    let pct = |v: &[f64], th: f64| 100.0 * v.iter().filter(|&&x| x < th).count() as f64 / v.len().max(1) as f64;
+    PoseStats {
+        count,
+        rotation_under_10_pct: pct(&er, 10.0),
+        rotation_under_20_pct: pct(&er, 20.0),
+        rotation_median_deg: median(er),
+        translation_median_pct: median(et),
+        scale_median_pct: median(es),
+    }
+}
+
+/// A trained GRPS regressor.
+#[derive(Debug)]
+pub struct GrpsTrained {
+    /// The model, in inference mode.
+    pub model: PoseRegressor,
+    /// The training run.
+    pub run: TrainRun,
+    /// Seconds spent generating the training set.
+    pub data_seconds: f64,
+}
+
+/// Samples the training scenes and trains the regressor.
+pub fn train_grps(config: &GrpsTrainConfig) -> Result<GrpsTrained, DataError> {
+    let start = Instant::now();
+    let train = training_dataset(config, config.train_samples, config.train.seed)?;
+    let data_seconds = start.elapsed().as_secs_f64();
+    let (wt, ws) = (config.translation_weight, config.scale_weight);
+    let (model, run) = train_with_loss(&config.model, &train, &config.train, |p, t| grps_loss(p, t, wt, ws));
+    Ok(GrpsTrained { model, run, data_seconds })
+}
+
+/// Trains with `config`, prints the seed, sizes, timing and validation figures, and writes
+/// `grps.bpk` (burn) and `grps.folded` (the runtime format) into `out_dir`. This is
+/// `simhc train grps`.
+pub fn train_and_write(out_dir: &std::path::Path, config: &GrpsTrainConfig) -> Result<(), Box<dyn std::error::Error>> {
+    use crate::export_folded;
+    use simhc::regressor::FoldedNetwork;
+    println!("seed {}", config.train.seed);
+    println!(
+        "training scenes {} (cameras per view {:?}, {:.0}% noisy up to {} px, {:.0}% with 7 points, views swapped half the time), epochs {}, batch {}, lr {:e} -> {:e}",
+        config.train_samples,
+        config.cameras,
+        100.0 * config.noisy_fraction,
+        config.max_noise_px,
+        100.0 * config.seven_fraction,
+        config.train.epochs,
+        config.train.batch_size,
+        config.train.learning_rate,
+        config.train.final_learning_rate
+    );
+    println!("model {:?}", config.model);
+    let trained = train_grps(config)?;
+    let r = &trained.run;
+    println!("parameters {}", trained.model.num_params());
+    println!("data generation {:.1} s", trained.data_seconds);
+    println!(
+        "training {:.1} s ({} steps, {:.0} samples/s)",
+        r.train_seconds,
+        r.steps,
+        (r.steps * config.train.batch_size) as f64 / r.train_seconds
+    );
+    let losses: Vec<String> = r.epoch_losses.iter().map(|l| format!("{l:.4}")).collect();
+    println!("epoch losses {}", losses.join(" "));
+
+    std::fs::create_dir_all(out_dir)?;
+    let bpk = out_dir.join("grps.bpk");
+    trained.model.clone().save_file(&bpk)?;
+    let folded_bytes = export_folded(&trained.model);
+    let folded_path = out_dir.join("grps.folded");
+    std::fs::write(&folded_path, &folded_bytes)?;
+    println!("wrote {} and {}", bpk.display(), folded_path.display());
+
+    let solver = GrpsSolver::with_network(FoldedNetwork::from_bytes(&folded_bytes)?);
+    let stats = evaluate_solver(&solver, config.valid_samples, config.valid_first_seed);
+    println!("validation (folded, batch 1; 3 cameras, noise-free, 8 points): {stats}");
+    Ok(())
+}

@@ -1,0 +1,227 @@
+//! A reusable RANSAC loop for any minimal solver: vanilla RANSAC (Fischler and Bolles 1981)
+//! with adaptive stopping at a confidence, an iteration cap, an inlier threshold on a residual,
+//! and an optional non-minimal refinement of the best model on its inliers.
+//!
+//! A problem plugs in through [`Estimator`]: the minimal sample size, a solver for a sample
+//! (zero or more hypotheses: a minimal solver may fail, or return several roots), and the
+//! residual of one datum under a model. [`Estimator::refine`] (default: none) fits a model to
+//! many inliers, e.g. Levenberg-Marquardt from the best minimal model.
+//!
+//! # Loop ([`ransac`])
+//!
+//! Each iteration draws `sample_size` distinct indices uniformly (seeded ChaCha8, so a run is
+//! reproducible), solves the sample, and scores every hypothesis by its inlier count
+//! (`residual <= threshold`; ties go to the smaller sum of inlier residuals). After a new best
+//! model with inlier ratio `w`, the number of iterations needed to draw at least one all-inlier
+//! sample with probability `confidence` is `k = log(1 - confidence) / log(1 - w^m)`; the loop
+//! stops at `min(k, max_iterations)`. Then, if enabled, the best model is refined on its
+//! inliers, the inliers recomputed, and the refinement kept when it does not lose inliers
+//! (`refine_rounds` times).
+//!
+//! # Why a trait of our own and not rust-cv's `sample-consensus`
+//!
+//! `sample-consensus` 1.x has the same three ideas (`Estimator::MIN_SAMPLES`,
+//! `Estimator::estimate(data iterator) -> models`, `Model::residual`) and leaves the loop to a
+//! `Consensus` implementation (e.g. the `arrsac` crate). We keep a 3-method trait here because
+//! (1) our minimal solvers are fallible and produce a variable number of hypotheses with
+//! diagnostics, which a `&mut Vec` output expresses without allocation per iteration,
+//! (2) the non-minimal refinement on the inliers is part of the algorithm we benchmark and has
+//! no place in those traits, (3) the report needs iteration counts and per-stage numbers, and
+//! (4) it adds no dependency. An adapter in either direction is a dozen lines: an
+//! `impl<E: sample_consensus::Estimator<D>> Estimator for Wrapper<E>` forwards `MIN_SAMPLES`,
+//! `estimate` and `residual`.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// A minimal solver and its residual, for [`ransac`].
+pub trait Estimator {
+    /// One datum (e.g. a correspondence).
+    type Datum;
+    /// A model (e.g. a pose).
+    type Model: Clone;
+
+    /// Number of data a minimal sample has.
+    fn sample_size(&self) -> usize;
+
+    /// Solves the sample `data[indices]` and pushes zero or more hypotheses onto `out` (which
+    /// is empty on entry).
+    fn solve(&self, data: &[Self::Datum], indices: &[usize], out: &mut Vec<Self::Model>);
+
+    /// Residual of one datum under a model (non-negative; `f64::INFINITY` for impossible, e.g.
+    /// a point behind a camera).
+    fn residual(&self, model: &Self::Model, datum: &Self::Datum) -> f64;
+
+    /// A model fitted to the inliers `data[inliers]`, starting from `model`; `None` (default)
+    /// when the estimator has no non-minimal refinement.
+    fn refine(&self, model: &Self::Model, data: &[Self::Datum], inliers: &[usize]) -> Option<Self::Model> {
+        let _ = (model, data, inliers);
+        None
+    }
+}
+
+/// Settings of [`ransac`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RansacOptions {
+    /// Iterations (samples) at most. Default `200` (the paper's GRPS experiment).
+    pub max_iterations: usize,
+    /// Stop once an all-inlier sample has been drawn with this probability (for the current
+    /// best inlier ratio). Default `0.99`.
+    pub confidence: f64,
+    /// A datum is an inlier when its residual is at most this.
+    pub threshold: f64,
+    /// Rounds of non-minimal refinement of the best model on its inliers (`0`: none).
+    /// Default `2`.
+    pub refine_rounds: usize,
+    /// Seed of the sampler. Default `0`.
+    pub seed: u64,
+}
+
+impl Default for RansacOptions {
+    fn default() -> Self {
+        Self { max_iterations: 200, confidence: 0.99, threshold: 0.01, refine_rounds: 2, seed: 0 }
+    }
+}
+
+/// The result of [`ransac`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct RansacResult<M> {
+    /// The best model (refined if refinement was enabled and helped).
+    pub model: M,
+    /// Indices of its inliers, increasing.
+    pub inliers: Vec<usize>,
+    /// Iterations (samples) run.
+    pub iterations: usize,
+    /// Hypotheses scored.
+    pub hypotheses: usize,
+    /// Whether a refinement was kept.
+    pub refined: bool,
+}
+
+/// Iterations needed to draw an all-inlier sample of size `m` with probability `confidence`
+/// when a fraction `w` of the data are inliers (`usize::MAX` when `w^m` underflows to zero).
+pub fn required_iterations(w: f64, m: usize, confidence: f64) -> usize {
+    let p = w.clamp(0.0, 1.0).powi(m as i32);
+    if p >= 1.0 {
+        return 1;
+    }
+    if p <= 0.0 {
+        return usize::MAX;
+    }
+    let k = (1.0 - confidence.clamp(0.0, 1.0 - 1e-15)).ln() / (1.0 - p).ln();
+    if k.is_finite() {
+        k.ceil().max(1.0) as usize
+    } else {
+        usize::MAX
+    }
+}
+
+/// Inlier count, sum of inlier residuals, and (optionally) the inlier indices of `model`.
+fn score<E: Estimator>(
+    estimator: &E,
+    model: &E::Model,
+    data: &[E::Datum],
+    threshold: f64,
+    inliers: Option<&mut Vec<usize>>,
+) -> (usize, f64) {
+    let mut count = 0;
+    let mut sum = 0.0;
+    let mut list = inliers;
+    if let Some(l) = list.as_deref_mut() {
+        l.clear();
+    }
+    for (i, d) in data.iter().enumerate() {
+        let r = estimator.residual(model, d);
+        if r <= threshold {
+            count += 1;
+            sum += r;
+            if let Some(l) = list.as_deref_mut() {
+                l.push(i);
+            }
+        }
+    }
+    (count, sum)
+}
+
+/// Draws `m` distinct indices out of `0..n` into `out` (partial Fisher-Yates on `pool`).
+fn draw(rng: &mut ChaCha8Rng, pool: &mut [usize], m: usize, out: &mut Vec<usize>) {
+    out.clear();
+    let n = pool.len();
+    for k in 0..m {
+        let j = rng.random_range(k..n);
+        pool.swap(k, j);
+        out.push(pool[k]);
+    }
+}
+
+/// Runs RANSAC (module docs). Returns `None` when there are fewer data than a sample needs or
+/// no hypothesis was ever produced.
+pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOptions) -> Option<RansacResult<E::Model>> {
+    let m = estimator.sample_size();
+    let n = data.len();
+    if m == 0 || n < m {
+        return None;
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+    let mut pool: Vec<usize> = (0..n).collect();
+    let mut sample = Vec::with_capacity(m);
+    let mut hypotheses = Vec::new();
+    let mut best: Option<(E::Model, usize, f64)> = None;
+    let mut needed = options.max_iterations;
+    let mut iterations = 0;
+    let mut scored = 0;
+    while iterations < needed.min(options.max_iterations) {
+        iterations += 1;
+        draw(&mut rng, &mut pool, m, &mut sample);
+        hypotheses.clear();
+        estimator.solve(data, &sample, &mut hypotheses);
+        for h in hypotheses.drain(..) {
+            scored += 1;
+            let (count, sum) = score(estimator, &h, data, options.threshold, None);
+            let better = match &best {
+                None => true,
+                Some((_, c, s)) => count > *c || (count == *c && sum < *s),
+            };
+            if better {
+                best = Some((h, count, sum));
+                needed = required_iterations(count as f64 / n as f64, m, options.confidence);
+            }
+        }
+    }
+    let (mut model, _, _) = best?;
+    let mut inliers = Vec::new();
+    let (mut count, mut sum) = score(estimator, &model, data, options.threshold, Some(&mut inliers));
+    let mut refined = false;
+    let mut candidate_inliers = Vec::new();
+    for _ in 0..options.refine_rounds {
+        if inliers.len() < m {
+            break;
+        }
+        let Some(r) = estimator.refine(&model, data, &inliers) else { break };
+        let (c, s) = score(estimator, &r, data, options.threshold, Some(&mut candidate_inliers));
+        if c > count || (c == count && s < sum) {
+            model = r;
+            (count, sum) = (c, s);
+            std::mem::swap(&mut inliers, &mut candidate_inliers);
+            refined = true;
+        } else {
+            break;
+        }
+    }
+    Some(RansacResult { model, inliers, iterations, hypotheses: scored, refined })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn required_iterations_matches_the_formula() {
+        // w = 0.5, m = 2: log(0.01) / log(0.75) = 16.0078 -> 17
+        assert_eq!(required_iterations(0.5, 2, 0.99), 17);
+        assert_eq!(required_iterations(1.0, 7, 0.99), 1);
+        assert_eq!(required_iterations(0.0, 7, 0.99), usize::MAX);
+        // 60 % inliers, 7-point samples: about 163 iterations
+        assert_eq!(required_iterations(0.6, 7, 0.99), 163);
+    }
+}

@@ -20,7 +20,7 @@ fn ransac_recovers_the_pose_with_30_percent_outliers() {
         let config = GrpsSceneConfig { points: 200, cameras_per_view: 5, noise_px: 2.0 * std::f64::consts::SQRT_2, focal_px: 800.0 };
         let mut scene = config.sample(&mut rng).expect("valid config");
         let original = scene.correspondences.clone();
-        let mut outlier = vec![false; 200];
+        let mut outlier = [false; 200];
         for i in 0..60 {
             let other = (i + 1 + rng.random_range(0..199)) % 200;
             scene.correspondences[i].fp = original[other].fp;

@@ -12,9 +12,9 @@ use simhc_problems::grps::solver::{GrpsPose, GrpsSolveError, GrpsSolver, GrpsSol
 use simhc_problems::metrics::{random_rotation_perturbation, rotation_error_deg, scale_error_pct, translation_error_pct};
 
 fn exact(pose: &GrpsPose, scene: &GrpsScene) -> bool {
-    rotation_error_deg(&pose.rotation, &scene.rotation) < 1e-6
-        && translation_error_pct(&pose.translation, &scene.translation) < 1e-4
-        && scale_error_pct(pose.scale, scene.scale) < 1e-4
+    rotation_error_deg(&pose.rotation, &scene.rotation) < 1e-5
+        && translation_error_pct(&pose.translation, &scene.translation) < 1e-3
+        && scale_error_pct(pose.scale, scene.scale) < 1e-3
 }
 
 fn success(pose: &GrpsPose, scene: &GrpsScene) -> bool {
@@ -32,7 +32,14 @@ fn recovery(points: usize, seeds: std::ops::Range<u64>) -> (usize, usize) {
         let scene = config.sample_seeded(seed).expect("valid config");
         if let Ok(pose) = solver.solve(&scene.correspondences) {
             if success(&pose, &scene) {
-                assert!(exact(&pose, &scene), "seed {seed}: a validated noise-free pose is exact");
+                let e = (
+                    rotation_error_deg(&pose.rotation, &scene.rotation),
+                    translation_error_pct(&pose.translation, &scene.translation),
+                    scale_error_pct(pose.scale, scene.scale),
+                );
+                // With 7 correspondences every real root is exact, and another root can lie
+                // within the success thresholds of the truth; with 8 or more it is unique.
+                assert!(points == 7 || exact(&pose, &scene), "seed {seed}: a validated noise-free pose is exact: {e:?}");
                 solved += 1;
             }
         }
@@ -44,7 +51,7 @@ fn recovery(points: usize, seeds: std::ops::Range<u64>) -> (usize, usize) {
 fn eight_point_noise_free_scenes_are_recovered() {
     let (solved, n) = recovery(8, 0..200);
     println!("8 points, seeds 0..200: {solved}/{n} recovered exactly");
-    assert!(solved >= 192, "only {solved}/{n}");
+    assert!(solved >= 197, "only {solved}/{n}");
 }
 
 #[test]

@@ -10,12 +10,15 @@
 //! # Loop ([`ransac`])
 //!
 //! Each iteration draws `sample_size` distinct indices uniformly (seeded ChaCha8, so a run is
-//! reproducible), solves the sample, and scores every hypothesis by its inlier count
-//! (`residual <= threshold`; ties go to the smaller sum of inlier residuals). After a new best
-//! model with inlier ratio `w`, the number of iterations needed to draw at least one all-inlier
+//! reproducible), solves the sample, and scores every hypothesis by the MSAC cost
+//! `sum_i min(r_i², threshold²)` (Torr and Zisserman 2000: inliers, `r_i <= threshold`, count
+//! by their squared residual, outliers by a constant; plain inlier counting cannot tell two
+//! models with the same inliers apart, which matters for accepting a refinement). After a new
+//! best model with inlier ratio `w`, the number of iterations needed to draw at least one all-inlier
 //! sample with probability `confidence` is `k = log(1 - confidence) / log(1 - w^m)`; the loop
-//! stops at `min(k, max_iterations)`. Then, if enabled, the best model is refined on its
-//! inliers, the inliers recomputed, and the refinement kept when it does not lose inliers
+//! stops at `min(k, max_iterations)` (with [`RansacOptions::local_optimization`], each new best
+//! model is first refined on its inliers, LO-RANSAC). Then, if enabled, the best model is refined on its
+//! inliers, the inliers recomputed, and the refinement kept when it lowers the MSAC cost
 //! (`refine_rounds` times).
 //!
 //! # Why a trait of our own and not rust-cv's `sample-consensus`
@@ -75,11 +78,16 @@ pub struct RansacOptions {
     pub refine_rounds: usize,
     /// Seed of the sampler. Default `0`.
     pub seed: u64,
+    /// Local optimization (LO-RANSAC, Chum et al. 2003): every new best minimal model is
+    /// refined on its inliers at once ([`Estimator::refine`]) and replaced when that gains
+    /// inliers, so that the stopping rule and later comparisons use the better model.
+    /// Default `false`.
+    pub local_optimization: bool,
 }
 
 impl Default for RansacOptions {
     fn default() -> Self {
-        Self { max_iterations: 200, confidence: 0.99, threshold: 0.01, refine_rounds: 2, seed: 0 }
+        Self { max_iterations: 200, confidence: 0.99, threshold: 0.01, refine_rounds: 2, seed: 0, local_optimization: false }
     }
 }
 
@@ -116,7 +124,8 @@ pub fn required_iterations(w: f64, m: usize, confidence: f64) -> usize {
     }
 }
 
-/// Inlier count, sum of inlier residuals, and (optionally) the inlier indices of `model`.
+/// Inlier count, MSAC cost `sum_i min(r_i², threshold²)`, and (optionally) the inlier indices
+/// of `model`.
 fn score<E: Estimator>(
     estimator: &E,
     model: &E::Model,
@@ -134,12 +143,13 @@ fn score<E: Estimator>(
         let r = estimator.residual(model, d);
         if r <= threshold {
             count += 1;
-            sum += r;
+            sum += r * r;
             if let Some(l) = list.as_deref_mut() {
                 l.push(i);
             }
         }
     }
+    sum += (data.len() - count) as f64 * threshold * threshold;
     (count, sum)
 }
 
@@ -170,6 +180,7 @@ pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOp
     let mut needed = options.max_iterations;
     let mut iterations = 0;
     let mut scored = 0;
+    let mut lo_inliers = Vec::new();
     while iterations < needed.min(options.max_iterations) {
         iterations += 1;
         draw(&mut rng, &mut pool, m, &mut sample);
@@ -180,9 +191,19 @@ pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOp
             let (count, sum) = score(estimator, &h, data, options.threshold, None);
             let better = match &best {
                 None => true,
-                Some((_, c, s)) => count > *c || (count == *c && sum < *s),
+                Some((_, c, s)) => sum < *s || (sum == *s && count > *c),
             };
             if better {
+                let (mut h, mut count, mut sum) = (h, count, sum);
+                if options.local_optimization && count >= m {
+                    score(estimator, &h, data, options.threshold, Some(&mut lo_inliers));
+                    if let Some(r) = estimator.refine(&h, data, &lo_inliers) {
+                        let (c, s) = score(estimator, &r, data, options.threshold, None);
+                        if s < sum || (s == sum && c > count) {
+                            (h, count, sum) = (r, c, s);
+                        }
+                    }
+                }
                 best = Some((h, count, sum));
                 needed = required_iterations(count as f64 / n as f64, m, options.confidence);
             }
@@ -199,7 +220,7 @@ pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOp
         }
         let Some(r) = estimator.refine(&model, data, &inliers) else { break };
         let (c, s) = score(estimator, &r, data, options.threshold, Some(&mut candidate_inliers));
-        if c > count || (c == count && s < sum) {
+        if s < sum || (s == sum && c > count) {
             model = r;
             (count, sum) = (c, s);
             std::mem::swap(&mut inliers, &mut candidate_inliers);

@@ -158,7 +158,7 @@ pub fn refine_pose(
             let rw = r * c.vp.cross(&c.fp);
             let off = t + r * c.vp * s - c.v;
             let norm = g.cross(&off).norm() * f.norm();
-            if !(norm > 1e-300) {
+            if norm.is_nan() || norm <= 1e-300 {
                 continue;
             }
             let res = grps_residual_direct(&r, &t, s, c) / norm;

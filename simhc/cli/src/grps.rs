@@ -10,9 +10,9 @@ use serde::Serialize;
 use simhc::all_roots::AllRootsOptions;
 use simhc::ransac::{ransac, RansacOptions};
 use simhc_problems::grps::ransac::GrpsEstimator;
-use simhc_problems::grps::refine::{lm_polynomial, LmOptions};
+use simhc_problems::grps::refine::{lm_polynomial, refine_pose, LmOptions};
 use simhc_problems::grps::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
-use simhc_problems::grps::solver::{GrpsPose, GrpsSolveError, GrpsSolveReport, GrpsSolver, GrpsSolverOptions, SimulatorKind};
+use simhc_problems::grps::solver::{GrpsPose, GrpsSolveError, GrpsSolveReport, GrpsSolver, GrpsSolverOptions, Method, SimulatorKind};
 use simhc_problems::grps::{self, Grps7, Grps8};
 use simhc_problems::metrics::{
     perturb_scale, perturb_translation, random_rotation_perturbation, rotation_error_deg, scale_error_pct, translation_error_pct,
@@ -61,6 +61,9 @@ pub struct GrpsArgs {
     /// bench grps: correspondences per RANSAC sample (7: minimal, 8: overdetermined).
     #[arg(long, default_value_t = 7)]
     pub ransac_sample: usize,
+    /// bench grps: RANSAC with local optimization (refine every new best model on its inliers).
+    #[arg(long)]
+    pub ransac_lo: bool,
 }
 
 impl GrpsArgs {
@@ -113,18 +116,20 @@ fn returned(result: &Result<GrpsSolveReport, GrpsSolveError>) -> Option<(GrpsSol
 struct SolverRow {
     record: MethodRecord,
     flagged: usize,
+    fallbacks: usize,
     attempts: Vec<f64>,
 }
 
 impl SolverRow {
     fn new(name: &str) -> Self {
-        Self { record: MethodRecord::new(name), flagged: 0, attempts: Vec::new() }
+        Self { record: MethodRecord::new(name), flagged: 0, fallbacks: 0, attempts: Vec::new() }
     }
 
     fn push(&mut self, result: Result<GrpsSolveReport, GrpsSolveError>, scene: &GrpsScene, micros: f64) {
         match returned(&result) {
             Some((r, flagged)) => {
                 self.flagged += usize::from(flagged);
+                self.fallbacks += usize::from(r.method == Method::AllRoots);
                 self.attempts.push(r.attempts as f64);
                 let split = [us(r.times.regressor), us(r.times.simulator), us(r.times.tracking)];
                 self.record.outcomes.push(outcome(&r.pose, scene, micros, Some(split)));
@@ -145,6 +150,8 @@ pub struct RowNotes {
     pub attempts_mean: f64,
     /// Largest number of attempts.
     pub attempts_max: f64,
+    /// Results from the all-roots fallback.
+    pub fallbacks: usize,
 }
 
 /// The numerical-stability section.
@@ -194,6 +201,13 @@ pub struct NoiseRow {
     pub scale_median_pct: f64,
     /// Median time per solve (microseconds).
     pub time_median_us: f64,
+    /// Reference: median rotation error of Gauss-Newton on the same system started at the
+    /// ground truth (the accuracy the noisy 8-point system allows).
+    pub reference_rotation_median_deg: f64,
+    /// Reference median translation error (percent).
+    pub reference_translation_median_pct: f64,
+    /// Reference median scale error (percent).
+    pub reference_scale_median_pct: f64,
 }
 
 /// One row of the RANSAC table.
@@ -219,6 +233,9 @@ pub struct RansacRow {
     pub time_mean_ms: f64,
     /// Median time per run (milliseconds).
     pub time_median_ms: f64,
+    /// Reference: mean errors of Levenberg-Marquardt from the ground truth on the true inliers
+    /// (the accuracy the noisy inliers allow).
+    pub reference_mean: [f64; 3],
 }
 
 /// The benchmark's JSON document.
@@ -244,6 +261,8 @@ pub struct BenchReport {
     pub ransac: Vec<RansacRow>,
     /// RANSAC sample size.
     pub ransac_sample: usize,
+    /// RANSAC with local optimization.
+    pub ransac_lo: bool,
     /// Figures written.
     pub figures: Vec<PathBuf>,
 }
@@ -271,6 +290,7 @@ pub fn bench(trials: &[GrpsScene], seed: u64, source: String, args: &GrpsArgs, p
         noise: Vec::new(),
         ransac: Vec::new(),
         ransac_sample: args.ransac_sample,
+        ransac_lo: args.ransac_lo,
         figures: Vec::new(),
     };
     if args.runs(Experiment::Stability) {
@@ -293,8 +313,11 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
     let predictor = solver(GrpsSolverOptions::default())?;
     let single_geo = solver(GrpsSolverOptions::single_path(Geometric))?;
     let single_gen = solver(GrpsSolverOptions::single_path(Generic))?;
-    let retry_geo = solver(GrpsSolverOptions::with_simulator(Geometric))?;
-    let retry_gen = solver(GrpsSolverOptions::with_simulator(Generic))?;
+    let no_fallback = |o: GrpsSolverOptions| GrpsSolverOptions { all_roots_fallback: false, ..o };
+    let retry_geo = solver(no_fallback(GrpsSolverOptions::with_simulator(Geometric)))?;
+    let retry_gen = solver(no_fallback(GrpsSolverOptions::with_simulator(Generic)))?;
+    let retry_gn = solver(no_fallback(GrpsSolverOptions::newton_first()))?;
+    let shipped = solver(GrpsSolverOptions::default())?;
     let mut pred = MethodRecord::new("Pred Initial");
     let mut pred_lm = MethodRecord::new("Pred + LM (8 pts)");
     let mut pred_gn = MethodRecord::new("Pred + Gauss-Newton (8 pts)");
@@ -303,9 +326,11 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
         SolverRow::new("Sim HC 7 pts, generic, 1 path"),
         SolverRow::new("Sim HC 8 pts, geometric, 1 path"),
         SolverRow::new("Sim HC 8 pts, generic, 1 path"),
-        SolverRow::new("Sim HC 7 pts, geometric + retries"),
         SolverRow::new("Sim HC 8 pts, geometric + retries"),
         SolverRow::new("Sim HC 8 pts, generic + retries"),
+        SolverRow::new("GN first + Sim HC retries, 8 pts"),
+        SolverRow::new("Shipped 7 pts (retries+fallback)"),
+        SolverRow::new("Shipped 8 pts (retries+fallback)"),
     ];
     let all_roots_trials = args.all_roots.min(trials.len());
     let mut all_roots = MethodRecord::new("All-roots HC 7 pts (1 thread)");
@@ -335,8 +360,17 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
         });
         pred_gn.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
 
-        let solvers: [(&GrpsSolver, &[GrpsCorrespondence]); 7] =
-            [(&single_geo, c7), (&single_gen, c7), (&single_geo, c8), (&single_gen, c8), (&retry_geo, c7), (&retry_geo, c8), (&retry_gen, c8)];
+        let solvers: [(&GrpsSolver, &[GrpsCorrespondence]); 9] = [
+            (&single_geo, c7),
+            (&single_gen, c7),
+            (&single_geo, c8),
+            (&single_gen, c8),
+            (&retry_geo, c8),
+            (&retry_gen, c8),
+            (&retry_gn, c8),
+            (&shipped, c7),
+            (&shipped, c8),
+        ];
         for (row, (s, c)) in rows.iter_mut().zip(solvers) {
             let (r, micros) = timed(|| s.solve_report(c));
             row.push(r, scene, micros);
@@ -366,6 +400,7 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
             flagged: row.flagged,
             attempts_mean: mean(&row.attempts),
             attempts_max: row.attempts.iter().copied().fold(0.0, f64::max),
+            fallbacks: row.fallbacks,
         });
         records.push(row.record);
     }
@@ -374,7 +409,7 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
     }
 
     // Figure: log10 error histograms of the main rows.
-    let shown = ["Pred Initial", "Pred + LM (8 pts)", "Pred + Gauss-Newton (8 pts)", "Sim HC 7 pts, geometric, 1 path", "Sim HC 8 pts, geometric, 1 path", "Sim HC 8 pts, geometric + retries", "All-roots HC 7 pts (1 thread)"];
+    let shown = ["Pred Initial", "Pred + LM (8 pts)", "Pred + Gauss-Newton (8 pts)", "Sim HC 7 pts, geometric, 1 path", "Sim HC 8 pts, geometric, 1 path", "Shipped 8 pts (retries+fallback)", "All-roots HC 7 pts (1 thread)"];
     let panel = |title: &str, unit: &str, get: fn(&Outcome) -> Option<f64>| Panel {
         title: title.to_string(),
         x_label: format!("log10 error ({unit})"),
@@ -470,9 +505,16 @@ fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>)
             let s = solver(GrpsSolverOptions::for_noise(noise_px, config.focal_px))?;
             let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(100 + cameras as u64));
             let mut record = MethodRecord::new("noise");
+            let mut reference = MethodRecord::new("reference");
             let mut errors = std::collections::BTreeMap::<String, usize>::new();
             for _ in 0..args.noise_trials {
                 let scene = config.sample(&mut rng).map_err(|e| e.to_string())?;
+                let truth = GrpsPose { rotation: scene.rotation, translation: scene.translation, scale: scene.scale };
+                let from_truth = grps::rows_of::<8>(&scene.correspondences).and_then(|rows| {
+                    let r = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&truth.unknowns(), &Grps8::params(&rows), &s.options.newton).ok()?;
+                    GrpsPose::from_unknowns(&r.x)
+                });
+                reference.outcomes.push(from_truth.map_or(failed(0.0), |p| outcome(&p, &scene, 0.0, None)));
                 let (r, micros) = timed(|| s.solve_report(&scene.correspondences));
                 match returned(&r) {
                     Some((r, _)) => record.outcomes.push(outcome(&r.pose, &scene, micros, None)),
@@ -486,6 +528,7 @@ fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>)
                 bar.inc(1);
             }
             let sm = record.summary(&THRESHOLDS);
+            let rf = reference.summary(&THRESHOLDS);
             rows.push(NoiseRow {
                 cameras,
                 noise_px,
@@ -497,6 +540,9 @@ fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>)
                 translation_median_pct: sm.translation_median_pct,
                 scale_median_pct: sm.scale_median_pct.unwrap_or(f64::NAN),
                 time_median_us: sm.time_median_us,
+                reference_rotation_median_deg: rf.rotation_median_deg,
+                reference_translation_median_pct: rf.translation_median_pct,
+                reference_scale_median_pct: rf.scale_median_pct.unwrap_or(f64::NAN),
             });
         }
     }
@@ -560,9 +606,19 @@ fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<Ransac
         let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(200 + (ratio * 100.0) as u64));
         let (mut succ, mut succ_all) = (0usize, 0usize);
         let (mut er, mut et, mut es, mut iters, mut times) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut refs: Vec<[f64; 3]> = Vec::new();
         for trial in 0..args.ransac_trials {
-            let (scene, _) = ransac_scene(ratio, &mut rng)?;
-            let options = RansacOptions { seed: seed.wrapping_mul(1_000_003).wrapping_add(trial as u64), ..RansacOptions::default() };
+            let (scene, is_outlier) = ransac_scene(ratio, &mut rng)?;
+            let inliers: Vec<GrpsCorrespondence> = scene.correspondences.iter().zip(&is_outlier).filter(|(_, &o)| !o).map(|(c, _)| *c).collect();
+            let reference = refine_pose(&scene.rotation, &scene.translation, scene.scale, &inliers, &LmOptions::default());
+            let rp = GrpsPose { rotation: reference.rotation, translation: reference.translation, scale: reference.scale };
+            let ro = outcome(&rp, &scene, 0.0, None);
+            refs.push([ro.rotation_deg.unwrap_or(f64::NAN), ro.translation_pct.unwrap_or(f64::NAN), ro.scale_pct.unwrap_or(f64::NAN)]);
+            let options = RansacOptions {
+                seed: seed.wrapping_mul(1_000_003).wrapping_add(trial as u64),
+                local_optimization: args.ransac_lo,
+                ..RansacOptions::default()
+            };
             let t = Instant::now();
             let result = ransac(&estimator, &scene.correspondences, &options);
             times.push(t.elapsed().as_secs_f64() * 1e3);
@@ -593,6 +649,7 @@ fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<Ransac
             iterations_mean: mean(&iters),
             time_mean_ms: mean(&times),
             time_median_ms: median(&times),
+            reference_mean: [0, 1, 2].map(|k| mean(&refs.iter().map(|r| r[k]).collect::<Vec<_>>())),
         });
     }
     bar.finish_and_clear();
@@ -607,10 +664,13 @@ pub fn text(report: &BenchReport) -> String {
         out.push_str(&crate::stats::table(&s.rows));
         out.push_str("success: E_R < 2 deg, E_t < 5 %, E_s < 5 %; errors over returned poses (flagged ones included); times in microseconds per solve, all retries included\n");
         for n in &s.notes {
-            out.push_str(&format!("  {:<34} flagged (not validated) {:>4}, attempts mean {:.2}, max {}\n", n.method, n.flagged, n.attempts_mean, n.attempts_max));
+            out.push_str(&format!(
+                "  {:<34} flagged (not validated) {:>4}, attempts mean {:.2}, max {}, all-roots fallback used {}\n",
+                n.method, n.flagged, n.attempts_mean, n.attempts_max, n.fallbacks
+            ));
         }
-        if let Some(ratio) = crate::stats::median_time_ratio(&s.rows, "All-roots HC 7 pts (1 thread)", "Sim HC 8 pts, geometric + retries") {
-            out.push_str(&format!("median time, All-roots HC / Sim HC 8 pts geometric + retries: {ratio:.0}x\n"));
+        if let Some(ratio) = crate::stats::median_time_ratio(&s.rows, "All-roots HC 7 pts (1 thread)", "Shipped 8 pts (retries+fallback)") {
+            out.push_str(&format!("median time, All-roots HC / shipped 8 pts: {ratio:.0}x\n"));
         }
     }
     if !report.starts.is_empty() {
@@ -639,11 +699,14 @@ pub fn text(report: &BenchReport) -> String {
         }
     }
     if !report.noise.is_empty() {
-        out.push_str("\nNoise resilience (Simulator HC 8 pts, geometric + retries):\n");
-        out.push_str(&format!("{:>7} {:>8} {:>7} {:>7} {:>8} {:>9} {:>9} {:>9} {:>9}  {}\n", "cameras", "noise px", "trials", "errors", "succ%", "E_R med", "E_t med", "E_s med", "t med us", "typed error"));
+        out.push_str("\nNoise resilience (the shipped solver, 8 pts; ref: Gauss-Newton on the same system from the ground truth):\n");
+        out.push_str(&format!(
+            "{:>7} {:>8} {:>7} {:>7} {:>8} {:>9} {:>9} {:>9} {:>9}   {:>9} {:>9} {:>9}  {}\n",
+            "cameras", "noise px", "trials", "errors", "succ%", "E_R med", "E_t med", "E_s med", "t med us", "ref E_R", "ref E_t", "ref E_s", "typed error"
+        ));
         for r in &report.noise {
             out.push_str(&format!(
-                "{:>7} {:>8.1} {:>7} {:>7} {:>8.1} {:>9.3} {:>9.3} {:>9.3} {:>9.1}  {}\n",
+                "{:>7} {:>8.1} {:>7} {:>7} {:>8.1} {:>9.3} {:>9.3} {:>9.3} {:>9.1}   {:>9.3} {:>9.3} {:>9.3}  {}\n",
                 r.cameras,
                 r.noise_px,
                 r.trials,
@@ -653,19 +716,26 @@ pub fn text(report: &BenchReport) -> String {
                 r.translation_median_pct,
                 r.scale_median_pct,
                 r.time_median_us,
+                r.reference_rotation_median_deg,
+                r.reference_translation_median_pct,
+                r.reference_scale_median_pct,
                 r.error.as_deref().unwrap_or("")
             ));
         }
     }
     if !report.ransac.is_empty() {
         out.push_str(&format!(
-            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, <= 200 iterations, 99 % confidence, threshold 0.01, LM on the inliers:\n",
-            report.ransac_sample
+            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, <= 200 iterations, 99 % confidence, threshold 0.01, LM on the inliers{}:\n",
+            report.ransac_sample,
+            if report.ransac_lo { ", local optimization" } else { "" }
         ));
-        out.push_str(&format!("{:>6} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9}\n", "ratio", "trials", "succ%", "succ all%", "E_R mean", "E_t mean", "E_s mean", "iters", "t mean ms", "t med ms"));
+        out.push_str(&format!(
+            "{:>6} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9}   {:>8} {:>8} {:>8}\n",
+            "ratio", "trials", "succ%", "succ all%", "E_R mean", "E_t mean", "E_s mean", "iters", "t mean ms", "t med ms", "ref E_R", "ref E_t", "ref E_s"
+        ));
         for r in &report.ransac {
             out.push_str(&format!(
-                "{:>5.0}% {:>7} {:>7.1} {:>9.1} {:>9.3} {:>9.3} {:>9.3} {:>8.1} {:>9.2} {:>9.2}\n",
+                "{:>5.0}% {:>7} {:>7.1} {:>9.1} {:>9.3} {:>9.3} {:>9.3} {:>8.1} {:>9.2} {:>9.2}   {:>8.3} {:>8.3} {:>8.3}\n",
                 100.0 * r.outlier_ratio,
                 r.trials,
                 r.success_pct,
@@ -675,10 +745,13 @@ pub fn text(report: &BenchReport) -> String {
                 r.scale_mean_pct,
                 r.iterations_mean,
                 r.time_mean_ms,
-                r.time_median_ms
+                r.time_median_ms,
+                r.reference_mean[0],
+                r.reference_mean[1],
+                r.reference_mean[2]
             ));
         }
-        out.push_str("succ%: E_R < 2 deg (the paper's RANSAC criterion); succ all%: also E_t, E_s < 5 %; errors: means over the E_R-successful runs\n");
+        out.push_str("succ%: E_R < 2 deg (the paper's RANSAC criterion); succ all%: also E_t, E_s < 5 %; errors: means over the E_R-successful runs; ref: LM from the ground truth on the true inliers, mean over all runs\n");
     }
     if !report.figures.is_empty() {
         out.push_str("\nfigures:");

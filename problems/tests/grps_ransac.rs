@@ -27,7 +27,7 @@ fn ransac_recovers_the_pose_with_30_percent_outliers() {
             scene.correspondences[i].vp = original[other].vp;
             outlier[i] = true;
         }
-        let options = RansacOptions { seed, ..RansacOptions::default() };
+        let options = RansacOptions { seed, local_optimization: true, ..RansacOptions::default() };
         let r = ransac(&estimator, &scene.correspondences, &options).expect("a model");
         let er = rotation_error_deg(&r.model.rotation, &scene.rotation);
         let et = translation_error_pct(&r.model.translation, &scene.translation);

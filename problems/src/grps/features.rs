@@ -111,7 +111,7 @@ impl GrpsFrame {
         Some(Self { q1, m1, k1, q2, m2, k2 })
     }
 
-    /// The canonical rows of `corrs` (module docs) into `out` (`18 * corrs.len()` numbers).
+    /// The canonical rows of `corrs` (module docs) into `out` (`GRPS_ROW_WIDTH * corrs.len()` numbers).
     /// Returns `false` (and leaves `out` partly written) for a length mismatch or non-finite
     /// values.
     pub fn rows(&self, corrs: &[GrpsCorrespondence], out: &mut [f32]) -> bool {

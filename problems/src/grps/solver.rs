@@ -230,14 +230,16 @@ impl GrpsSolverOptions {
         }
     }
 
-    /// The minimal solver inside RANSAC: few attempts per sample (the prediction with the
-    /// geometric simulator, then Gauss-Newton, then the predicted rotation with least-squares
-    /// `(t, s)`), the first plausible end point returned (consensus decides the rest).
+    /// The minimal solver inside RANSAC: Simulator HC (geometric) then Gauss-Newton on the
+    /// prediction, its rotation with least-squares `(t, s)`, the swapped prediction and its
+    /// rotation (8 attempts at most), no restarts, no fallback; used with
+    /// [`super::ransac::GrpsEstimator`], which keeps up to 4 distinct plausible end points per
+    /// sample (with 7 correspondences every real root is exact: consensus picks).
     pub fn for_ransac() -> Self {
         Self {
             methods: [Some(Method::Hc(SimulatorKind::Geometric)), Some(Method::GaussNewton), None],
             restart_method: None,
-            max_attempts: 3,
+            max_attempts: 8,
             plausible_angle: 0.02,
             extra_attempts: 0,
             all_roots_fallback: false,
@@ -453,19 +455,7 @@ impl GrpsSolver {
         let o = &self.options;
         let base = given.or(prediction).ok_or(GrpsSolveError::BadPrediction)?;
         let base_kind = if given.is_some() { StartKind::Given } else { StartKind::Prediction };
-        let first: Vec<Method> = o.methods.iter().flatten().copied().collect();
-        let mut schedule: Vec<(StartKind, Method)> = first.iter().map(|&m| (base_kind, m)).collect();
-        if given.is_none() {
-            for kind in [StartKind::PredictedRotation, StartKind::Swapped, StartKind::SwappedRotation] {
-                schedule.extend(first.iter().map(|&m| (kind, m)));
-            }
-        }
-        if let Some(m) = o.restart_method {
-            for a in 0..o.restart_angles_deg.len() as u8 {
-                schedule.extend((0..AXES.len() as u8).map(|k| (StartKind::Perturbed(a * AXES.len() as u8 + k), m)));
-            }
-        }
-        schedule.truncate(o.max_attempts);
+        let schedule = self.schedule(base_kind);
 
         let mut attempts = 0;
         let mut best: Option<GrpsSolveReport> = None;
@@ -544,6 +534,54 @@ impl GrpsSolver {
             }
             None => Err(GrpsSolveError::NoEndPoint { attempts, last: last_error }),
         }
+    }
+
+    /// The attempts (start hypothesis, method) in order (module docs).
+    fn schedule(&self, base_kind: StartKind) -> Vec<(StartKind, Method)> {
+        let o = &self.options;
+        let first: Vec<Method> = o.methods.iter().flatten().copied().collect();
+        let mut schedule: Vec<(StartKind, Method)> = first.iter().map(|&m| (base_kind, m)).collect();
+        if base_kind == StartKind::Prediction {
+            for kind in [StartKind::PredictedRotation, StartKind::Swapped, StartKind::SwappedRotation] {
+                schedule.extend(first.iter().map(|&m| (kind, m)));
+            }
+        }
+        if let Some(m) = o.restart_method {
+            for a in 0..o.restart_angles_deg.len() as u8 {
+                schedule.extend((0..AXES.len() as u8).map(|k| (StartKind::Perturbed(a * AXES.len() as u8 + k), m)));
+            }
+        }
+        schedule.truncate(o.max_attempts);
+        schedule
+    }
+
+    /// Up to `max` distinct plausible end points (no fallback): the hypotheses of a RANSAC
+    /// sample. With 7 correspondences every real root is exact, so several cheirality-valid
+    /// roots are returned and the consensus picks; the attempts run in the order of
+    /// [`GrpsSolver::solve_report`] until `max` are found or `max_attempts` are spent.
+    pub fn candidates(&self, corrs: &[GrpsCorrespondence], max: usize) -> Result<Vec<GrpsPose>, GrpsSolveError> {
+        validate(corrs)?;
+        let base = self.predict_unchecked(corrs)?;
+        let mut times = StageTimes::default();
+        let mut swapped = None;
+        let mut current: Option<(StartKind, Option<GrpsPose>)> = None;
+        let mut out: Vec<GrpsPose> = Vec::new();
+        for (kind, method) in self.schedule(StartKind::Prediction) {
+            if out.len() >= max {
+                break;
+            }
+            if current.is_none_or(|(k, _)| k != kind) {
+                current = Some((kind, self.start_hypothesis(kind, &base, corrs, &mut times, &mut swapped)));
+            }
+            let Some((_, Some(start))) = current else { continue };
+            let Ok((pose, _)) = self.attempt(corrs, &start, method, &mut times) else { continue };
+            let validation = Validation::of(&pose, corrs);
+            let distinct = out.iter().all(|p| (p.rotation - pose.rotation).norm() > 1e-6 || (p.translation - pose.translation).norm() > 1e-6 * (1.0 + p.translation.norm()));
+            if validation.passes(self.options.plausible_angle, self.options.max_behind) && distinct {
+                out.push(pose);
+            }
+        }
+        Ok(out)
     }
 
     /// With more than 8 correspondences: refine on all of them.

@@ -62,8 +62,14 @@ pub struct GrpsArgs {
     #[arg(long, default_value_t = 7)]
     pub ransac_sample: usize,
     /// bench grps: RANSAC with local optimization (refine every new best model on its inliers).
-    #[arg(long)]
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub ransac_lo: bool,
+    /// bench grps: hypotheses per RANSAC sample (distinct plausible end points).
+    #[arg(long, default_value_t = 4)]
+    pub ransac_hypotheses: usize,
+    /// bench grps: solver attempts per RANSAC sample.
+    #[arg(long, default_value_t = 8)]
+    pub ransac_attempts: usize,
 }
 
 impl GrpsArgs {
@@ -263,6 +269,10 @@ pub struct BenchReport {
     pub ransac_sample: usize,
     /// RANSAC with local optimization.
     pub ransac_lo: bool,
+    /// Hypotheses per RANSAC sample.
+    pub ransac_hypotheses: usize,
+    /// Solver attempts per RANSAC sample.
+    pub ransac_attempts: usize,
     /// Figures written.
     pub figures: Vec<PathBuf>,
 }
@@ -291,6 +301,8 @@ pub fn bench(trials: &[GrpsScene], seed: u64, source: String, args: &GrpsArgs, p
         ransac: Vec::new(),
         ransac_sample: args.ransac_sample,
         ransac_lo: args.ransac_lo,
+        ransac_hypotheses: args.ransac_hypotheses,
+        ransac_attempts: args.ransac_attempts,
         figures: Vec::new(),
     };
     if args.runs(Experiment::Stability) {
@@ -598,8 +610,9 @@ pub fn ransac_scene(ratio: f64, rng: &mut ChaCha8Rng) -> Result<(GrpsScene, Vec<
 }
 
 fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<RansacRow>, String> {
-    let minimal = solver(GrpsSolverOptions::for_ransac())?;
-    let estimator = GrpsEstimator::new(minimal, args.ransac_sample);
+    let minimal = solver(GrpsSolverOptions { max_attempts: args.ransac_attempts, ..GrpsSolverOptions::for_ransac() })?;
+    let mut estimator = GrpsEstimator::new(minimal, args.ransac_sample);
+    estimator.hypotheses = args.ransac_hypotheses;
     let mut rows = Vec::new();
     let bar = crate::progress_bar((OUTLIER_RATIOS.len() * args.ransac_trials) as u64, progress);
     for ratio in OUTLIER_RATIOS {
@@ -725,8 +738,10 @@ pub fn text(report: &BenchReport) -> String {
     }
     if !report.ransac.is_empty() {
         out.push_str(&format!(
-            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, <= 200 iterations, 99 % confidence, threshold 0.01, LM on the inliers{}:\n",
+            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, <= {} attempts and {} hypotheses per sample, <= 200 iterations, 99 % confidence, threshold 0.01, LM on the inliers{}:\n",
             report.ransac_sample,
+            report.ransac_attempts,
+            report.ransac_hypotheses,
             if report.ransac_lo { ", local optimization" } else { "" }
         ));
         out.push_str(&format!(

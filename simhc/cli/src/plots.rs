@@ -102,7 +102,7 @@ where
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 12))
-        .position(SeriesLabelPosition::UpperRight)
+        .position(if step { SeriesLabelPosition::UpperMiddle } else { SeriesLabelPosition::UpperRight })
         .draw()?;
     Ok(())
 }

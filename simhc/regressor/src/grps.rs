@@ -19,6 +19,11 @@
 //! second hypothesis). Seeds: training scenes from `ChaCha8Rng::seed_from_u64(train.seed)`, in
 //! order; validation scene `i` is the benchmark's (3 cameras, noise-free, 8 points)
 //! `sample_seeded(valid_first_seed + i)`.
+//!
+//! Shipped weights (the default configuration): 406 s of training on this project's 2-core
+//! machine (4,726 samples/s), bit-identical when rerun; validation (folded network, 2,000
+//! scenes): median rotation error 13.8 deg (34 % under 10 deg, 66 % under 20 deg), translation
+//! 98 %, scale 25 %.
 
 use crate::data::{DataError, InMemoryDataset, Sample};
 use crate::model::{PoseRegressor, RegressorConfig};

@@ -17,22 +17,7 @@ use super::scene::GrpsCorrespondence;
 use nalgebra::{Matrix3, Rotation3, SMatrix, SVector, Vector3};
 use simhc::Problem;
 
-/// Settings of the Levenberg-Marquardt loops.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LmOptions {
-    /// Iterations at most.
-    pub max_iterations: usize,
-    /// Initial damping relative to the diagonal of `J^T J`.
-    pub initial_lambda: f64,
-    /// Stop when the step's max-norm is below this.
-    pub step_tolerance: f64,
-}
-
-impl Default for LmOptions {
-    fn default() -> Self {
-        Self { max_iterations: 50, initial_lambda: 1e-3, step_tolerance: 1e-12 }
-    }
-}
+pub use crate::lm::LmOptions;
 
 /// Result of [`lm_polynomial`].
 #[derive(Debug, Clone, Copy, PartialEq)]

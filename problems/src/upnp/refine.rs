@@ -7,22 +7,7 @@
 use super::scene::UpnpCorrespondence;
 use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
-/// Settings of [`levenberg_marquardt`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LmOptions {
-    /// Iterations at most.
-    pub max_iterations: usize,
-    /// Initial damping relative to the diagonal.
-    pub initial_lambda: f64,
-    /// Stop when the step is below this (radians / length units).
-    pub step_tolerance: f64,
-}
-
-impl Default for LmOptions {
-    fn default() -> Self {
-        Self { max_iterations: 50, initial_lambda: 1e-3, step_tolerance: 1e-12 }
-    }
-}
+pub use crate::lm::LmOptions;
 
 /// The refined pose and its final cost `sum |r_i|^2`.
 #[derive(Debug, Clone, Copy, PartialEq)]

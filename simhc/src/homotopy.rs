@@ -303,34 +303,17 @@ where
         h: &mut SVector<S, NF>,
         jx: &mut SMatrix<S, NF, NX>,
     ) {
-        let mut f0 = SVector::<S, NF>::zeros();
-        let mut j0 = SMatrix::<S, NF, NX>::zeros();
-        let mut f1 = SVector::<S, NF>::zeros();
-        let mut j1 = SMatrix::<S, NF, NX>::zeros();
-        P::residual_jacobian(x, &self.p0, &mut f0, &mut j0);
-        P::residual_jacobian(x, &self.p1, &mut f1, &mut j1);
-        let a = self.gamma * S::from_real(1.0 - t);
-        let b = S::from_real(t);
-        lincomb(h, a, &f0, b, &f1);
-        lincomb(jx, a, &j0, b, &j1);
+        blend_evaluate::<P, P, S, NX, NF, _, _>(&self.p0, &self.p1, self.gamma, x, t, h, jx);
     }
 
     #[inline]
     fn dt(&self, x: &SVector<S, NX>, _t: f64, dh: &mut SVector<S, NF>) {
-        let mut f0 = SVector::<S, NF>::zeros();
-        let mut f1 = SVector::<S, NF>::zeros();
-        P::residual(x, &self.p0, &mut f0);
-        P::residual(x, &self.p1, &mut f1);
-        lincomb(dh, -self.gamma, &f0, S::one(), &f1);
+        blend_dt::<P, P, S, NX, NF, _, _>(&self.p0, &self.p1, self.gamma, x, dh);
     }
 
     #[inline]
     fn residual(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>) {
-        let mut f0 = SVector::<S, NF>::zeros();
-        let mut f1 = SVector::<S, NF>::zeros();
-        P::residual(x, &self.p0, &mut f0);
-        P::residual(x, &self.p1, &mut f1);
-        lincomb(h, self.gamma * S::from_real(1.0 - t), &f0, S::from_real(t), &f1);
+        blend_residual::<P, P, S, NX, NF, _, _>(&self.p0, &self.p1, self.gamma, x, t, h);
     }
 
     #[inline]
@@ -341,14 +324,7 @@ where
         jx: &mut SMatrix<S, NF, NX>,
         dh: &mut SVector<S, NF>,
     ) {
-        let mut f0 = SVector::<S, NF>::zeros();
-        let mut j0 = SMatrix::<S, NF, NX>::zeros();
-        let mut f1 = SVector::<S, NF>::zeros();
-        let mut j1 = SMatrix::<S, NF, NX>::zeros();
-        P::residual_jacobian(x, &self.p0, &mut f0, &mut j0);
-        P::residual_jacobian(x, &self.p1, &mut f1, &mut j1);
-        lincomb(jx, self.gamma * S::from_real(1.0 - t), &j0, S::from_real(t), &j1);
-        lincomb(dh, -self.gamma, &f0, S::one(), &f1);
+        blend_jacobian_dt::<P, P, S, NX, NF, _, _>(&self.p0, &self.p1, self.gamma, x, t, jx, dh);
     }
 }
 
@@ -390,34 +366,17 @@ where
         h: &mut SVector<S, NF>,
         jx: &mut SMatrix<S, NF, NX>,
     ) {
-        let mut f0 = SVector::<S, NF>::zeros();
-        let mut j0 = SMatrix::<S, NF, NX>::zeros();
-        let mut f1 = SVector::<S, NF>::zeros();
-        let mut j1 = SMatrix::<S, NF, NX>::zeros();
-        G::residual_jacobian(x, &self.pg, &mut f0, &mut j0);
-        F::residual_jacobian(x, &self.pf, &mut f1, &mut j1);
-        let a = self.gamma * S::from_real(1.0 - t);
-        let b = S::from_real(t);
-        lincomb(h, a, &f0, b, &f1);
-        lincomb(jx, a, &j0, b, &j1);
+        blend_evaluate::<G, F, S, NX, NF, _, _>(&self.pg, &self.pf, self.gamma, x, t, h, jx);
     }
 
     #[inline]
     fn dt(&self, x: &SVector<S, NX>, _t: f64, dh: &mut SVector<S, NF>) {
-        let mut f0 = SVector::<S, NF>::zeros();
-        let mut f1 = SVector::<S, NF>::zeros();
-        G::residual(x, &self.pg, &mut f0);
-        F::residual(x, &self.pf, &mut f1);
-        lincomb(dh, -self.gamma, &f0, S::one(), &f1);
+        blend_dt::<G, F, S, NX, NF, _, _>(&self.pg, &self.pf, self.gamma, x, dh);
     }
 
     #[inline]
     fn residual(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>) {
-        let mut f0 = SVector::<S, NF>::zeros();
-        let mut f1 = SVector::<S, NF>::zeros();
-        G::residual(x, &self.pg, &mut f0);
-        F::residual(x, &self.pf, &mut f1);
-        lincomb(h, self.gamma * S::from_real(1.0 - t), &f0, S::from_real(t), &f1);
+        blend_residual::<G, F, S, NX, NF, _, _>(&self.pg, &self.pf, self.gamma, x, t, h);
     }
 
     #[inline]
@@ -428,15 +387,99 @@ where
         jx: &mut SMatrix<S, NF, NX>,
         dh: &mut SVector<S, NF>,
     ) {
-        let mut f0 = SVector::<S, NF>::zeros();
-        let mut j0 = SMatrix::<S, NF, NX>::zeros();
-        let mut f1 = SVector::<S, NF>::zeros();
-        let mut j1 = SMatrix::<S, NF, NX>::zeros();
-        G::residual_jacobian(x, &self.pg, &mut f0, &mut j0);
-        F::residual_jacobian(x, &self.pf, &mut f1, &mut j1);
-        lincomb(jx, self.gamma * S::from_real(1.0 - t), &j0, S::from_real(t), &j1);
-        lincomb(dh, -self.gamma, &f0, S::one(), &f1);
+        blend_jacobian_dt::<G, F, S, NX, NF, _, _>(&self.pg, &self.pf, self.gamma, x, t, jx, dh);
     }
+}
+
+// `gamma (1-t) G(x; pg) + t F(x; pf)`: shared by [`StraightLine`] (`G = F`) and [`GammaTrick`].
+
+#[inline]
+fn blend_evaluate<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>(
+    pg: &SVector<S, NPG>,
+    pf: &SVector<S, NPF>,
+    gamma: S,
+    x: &SVector<S, NX>,
+    t: f64,
+    h: &mut SVector<S, NF>,
+    jx: &mut SMatrix<S, NF, NX>,
+) where
+    G: Problem<NX, NF, NPG>,
+    F: Problem<NX, NF, NPF>,
+    S: Scalar,
+{
+    let mut f0 = SVector::<S, NF>::zeros();
+    let mut j0 = SMatrix::<S, NF, NX>::zeros();
+    let mut f1 = SVector::<S, NF>::zeros();
+    let mut j1 = SMatrix::<S, NF, NX>::zeros();
+    G::residual_jacobian(x, pg, &mut f0, &mut j0);
+    F::residual_jacobian(x, pf, &mut f1, &mut j1);
+    let a = gamma * S::from_real(1.0 - t);
+    let b = S::from_real(t);
+    lincomb(h, a, &f0, b, &f1);
+    lincomb(jx, a, &j0, b, &j1);
+}
+
+#[inline]
+fn blend_dt<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>(
+    pg: &SVector<S, NPG>,
+    pf: &SVector<S, NPF>,
+    gamma: S,
+    x: &SVector<S, NX>,
+    dh: &mut SVector<S, NF>,
+) where
+    G: Problem<NX, NF, NPG>,
+    F: Problem<NX, NF, NPF>,
+    S: Scalar,
+{
+    let mut f0 = SVector::<S, NF>::zeros();
+    let mut f1 = SVector::<S, NF>::zeros();
+    G::residual(x, pg, &mut f0);
+    F::residual(x, pf, &mut f1);
+    lincomb(dh, -gamma, &f0, S::one(), &f1);
+}
+
+#[inline]
+fn blend_residual<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>(
+    pg: &SVector<S, NPG>,
+    pf: &SVector<S, NPF>,
+    gamma: S,
+    x: &SVector<S, NX>,
+    t: f64,
+    h: &mut SVector<S, NF>,
+) where
+    G: Problem<NX, NF, NPG>,
+    F: Problem<NX, NF, NPF>,
+    S: Scalar,
+{
+    let mut f0 = SVector::<S, NF>::zeros();
+    let mut f1 = SVector::<S, NF>::zeros();
+    G::residual(x, pg, &mut f0);
+    F::residual(x, pf, &mut f1);
+    lincomb(h, gamma * S::from_real(1.0 - t), &f0, S::from_real(t), &f1);
+}
+
+#[inline]
+fn blend_jacobian_dt<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>(
+    pg: &SVector<S, NPG>,
+    pf: &SVector<S, NPF>,
+    gamma: S,
+    x: &SVector<S, NX>,
+    t: f64,
+    jx: &mut SMatrix<S, NF, NX>,
+    dh: &mut SVector<S, NF>,
+) where
+    G: Problem<NX, NF, NPG>,
+    F: Problem<NX, NF, NPF>,
+    S: Scalar,
+{
+    let mut f0 = SVector::<S, NF>::zeros();
+    let mut j0 = SMatrix::<S, NF, NX>::zeros();
+    let mut f1 = SVector::<S, NF>::zeros();
+    let mut j1 = SMatrix::<S, NF, NX>::zeros();
+    G::residual_jacobian(x, pg, &mut f0, &mut j0);
+    F::residual_jacobian(x, pf, &mut f1, &mut j1);
+    lincomb(jx, gamma * S::from_real(1.0 - t), &j0, S::from_real(t), &j1);
+    lincomb(dh, -gamma, &f0, S::one(), &f1);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -465,13 +465,14 @@ impl<P, const NP: usize, const NC: usize> CoefficientParameterHomotopy<P, NP, NC
         Some(Self { base, dc })
     }
 
+    /// `dc/dt (t)` by Horner in the real `t` (real scalings over plain slices, which
+    /// vectorize; nalgebra's strided iterators did not).
     #[inline]
     fn dc_at(&self, t: f64) -> SVector<C, NC> {
-        let tc = C::new(t, 0.0);
         let mut v = self.dc[self.dc.len() - 1];
         for k in (0..self.dc.len() - 1).rev() {
-            for (vi, di) in v.iter_mut().zip(self.dc[k].iter()) {
-                *vi = *vi * tc + *di;
+            for (vi, di) in v.as_mut_slice().iter_mut().zip(self.dc[k].as_slice()) {
+                *vi = C::new(vi.re * t + di.re, vi.im * t + di.im);
             }
         }
         v

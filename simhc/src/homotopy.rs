@@ -499,31 +499,45 @@ pub struct ParameterHomotopy<P, S: Scalar, const NP: usize> {
     pub p0: SVector<S, NP>,
     /// Target parameters (`t = 1`).
     pub p1: SVector<S, NP>,
-    /// Bend of the parameter path, weighted by `t (1 - t)`.
-    pub bend: SVector<S, NP>,
+    /// Bend of the parameter path, weighted by `t (1 - t)` (read it with
+    /// [`ParameterHomotopy::bend`]; private so that `bent` stays true to it).
+    bend: SVector<S, NP>,
+    /// Whether `bend` has a non-zero entry.
+    bent: bool,
     problem: PhantomData<fn() -> P>,
 }
 
 impl<P, S: Scalar, const NP: usize> ParameterHomotopy<P, S, NP> {
     /// The straight parameter segment from `p0` to `p1`.
     pub fn new(p0: SVector<S, NP>, p1: SVector<S, NP>) -> Self {
-        Self { p0, p1, bend: SVector::zeros(), problem: PhantomData }
+        Self { p0, p1, bend: SVector::zeros(), bent: false, problem: PhantomData }
     }
 
     /// The parameter path with an explicit bend `q`.
     pub fn with_bend(p0: SVector<S, NP>, p1: SVector<S, NP>, bend: SVector<S, NP>) -> Self {
-        Self { p0, p1, bend, problem: PhantomData }
+        let bent = bend.iter().any(|b| !b.is_zero());
+        Self { p0, p1, bend, bent, problem: PhantomData }
     }
 
-    /// `p(t)`.
+    /// The bend of the parameter path (zero for a straight segment).
+    pub fn bend(&self) -> &SVector<S, NP> {
+        &self.bend
+    }
+
+    /// `p(t)`. Real weights scale each component (two real products per complex entry, not a
+    /// complex product: `p(t)` is formed at every evaluation); at `t = 1` it is exactly `p1`.
     #[inline]
     pub fn params_at(&self, t: f64) -> SVector<S, NP> {
-        let a = S::from_real(1.0 - t);
-        let b = S::from_real(t);
-        let c = S::from_real(t * (1.0 - t));
+        let (a, b) = (1.0 - t, t);
         let mut p = SVector::<S, NP>::zeros();
         for i in 0..NP {
-            p[i] = a * self.p0[i] + b * self.p1[i] + c * self.bend[i];
+            p[i] = self.p0[i].scale(a) + self.p1[i].scale(b);
+        }
+        if self.bent {
+            let c = t * (1.0 - t);
+            for i in 0..NP {
+                p[i] += self.bend[i].scale(c);
+            }
         }
         p
     }
@@ -531,10 +545,15 @@ impl<P, S: Scalar, const NP: usize> ParameterHomotopy<P, S, NP> {
     /// `dp/dt (t)`.
     #[inline]
     pub fn params_dt(&self, t: f64) -> SVector<S, NP> {
-        let c = S::from_real(1.0 - 2.0 * t);
+        let c = 1.0 - 2.0 * t;
         let mut d = SVector::<S, NP>::zeros();
         for i in 0..NP {
-            d[i] = self.p1[i] - self.p0[i] + c * self.bend[i];
+            d[i] = self.p1[i] - self.p0[i];
+        }
+        if self.bent {
+            for i in 0..NP {
+                d[i] += self.bend[i].scale(c);
+            }
         }
         d
     }
@@ -565,7 +584,7 @@ impl<P, const NP: usize> ParameterHomotopy<P, Complex<f64>, NP> {
         let dn = d.norm();
         let scale = if dn > 0.0 { g * len / dn } else { 0.0 };
         let bend = d.map(|e| Complex::new(0.0, e * scale));
-        Self { p0: to_complex(p0), p1: to_complex(p1), bend, problem: PhantomData }
+        Self::with_bend(to_complex(p0), to_complex(p1), bend)
     }
 }
 

@@ -3,11 +3,13 @@
 //!
 //! The pieces, one concern per module:
 //! - [`scalar`]: the number type generated code is generic over (`f64`, `Complex<f64>`);
+//! - [`lanes`]: several rows evaluated at once (the SIMD form of generated row kernels);
 //! - [`problem`]: the traits of a compiled polynomial system `F(x; p)`;
 //! - [`simulator`]: online simulators, including the generic minimum-norm one.
 
 pub mod all_roots;
 pub mod homotopy;
+pub mod lanes;
 pub mod monodromy;
 pub mod problem;
 pub mod ransac;

@@ -10,11 +10,14 @@ use num_complex::Complex;
 /// `ComplexField`, with `RealField = f64`) to embed real constants; the tracker additionally uses
 /// `ComplexField` for norms.
 pub trait Scalar: ComplexField<RealField = f64> + Copy {
+    /// [`crate::lanes::LANES`] values of this scalar, for row kernels.
+    type Lanes: crate::lanes::Lanes<Scalar = Self>;
     /// Whether every component is finite (no NaN, no infinity).
     fn is_finite_value(self) -> bool;
 }
 
 impl Scalar for f64 {
+    type Lanes = crate::lanes::F64x4;
     #[inline(always)]
     fn is_finite_value(self) -> bool {
         self.is_finite()
@@ -22,6 +25,7 @@ impl Scalar for f64 {
 }
 
 impl Scalar for Complex<f64> {
+    type Lanes = crate::lanes::C64x4;
     #[inline(always)]
     fn is_finite_value(self) -> bool {
         self.re.is_finite() && self.im.is_finite()

@@ -87,7 +87,7 @@ use corrector::{
 };
 use linalg::LinearSolver;
 use nalgebra::SVector;
-use predictor::{all_finite, predict, tangent, tangent_from_factor};
+use predictor::{all_finite, predict, tangent, tangent_from_factor, History};
 use thiserror::Error;
 
 /// Second Newton updates below this (weighted norm) are at rounding level: no `omega` from them.
@@ -259,6 +259,8 @@ pub struct TrackerState<S: Scalar, const NX: usize> {
     weights: SVector<f64, NX>,
     /// Index `k` of `t_k = k dt` in the fixed schedule.
     fixed_index: usize,
+    /// Accepted points before `x` (multistep predictor).
+    history: History<S, NX>,
 }
 
 impl<S: Scalar, const NX: usize> TrackerState<S, NX> {
@@ -275,6 +277,7 @@ impl<S: Scalar, const NX: usize> TrackerState<S, NX> {
             tangent: SVector::zeros(),
             weights: SVector::repeat(1.0),
             fixed_index: 0,
+            history: History::new(),
         }
     }
 }
@@ -420,6 +423,7 @@ where
             t0,
             dt,
             &self.state.tangent,
+            &self.state.history,
             &mut self.solver,
             &mut self.state.stats,
         );
@@ -511,6 +515,12 @@ where
     ) -> TrackerStatus {
         let after_rejection = self.state.last_rejected;
         let st = &mut self.state;
+        if dragged {
+            // A drag step may leave the path: extrapolating through it would mislead.
+            st.history.clear();
+        } else {
+            st.history.push(st.t, &st.x, &st.tangent);
+        }
         st.x = x;
         st.t = t1;
         st.stats.accepted_steps += 1;

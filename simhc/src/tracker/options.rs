@@ -11,6 +11,15 @@ pub enum Predictor {
     /// Classic Runge-Kutta, order 4: three extra tangents per step. The paper's predictor and the
     /// default; its `O(dt^5)` local error lets the adaptive controller take few, long steps.
     Rk4,
+    /// Hermite extrapolation through the last accepted points and their tangents (a multistep
+    /// predictor): cubic through two points (order 3), quintic through three (order 5). The
+    /// tangents come from the correctors' last factorizations, so a step costs *no* extra
+    /// factorization. The first step (no history yet) and the first after a path restart use
+    /// Heun. Best where factorizations dominate and paths are smooth (all-roots tracking).
+    Hermite {
+        /// Accepted points used: `2` (cubic) or `3` (quintic); other values are clamped.
+        points: u8,
+    },
 }
 
 impl Predictor {
@@ -21,6 +30,7 @@ impl Predictor {
             Predictor::Euler => 1,
             Predictor::Heun => 2,
             Predictor::Rk4 => 4,
+            Predictor::Hermite { points } => 2 * (points.clamp(2, 3) as u32) - 1,
         }
     }
 }

@@ -1,4 +1,5 @@
-//! Predictors: explicit Runge-Kutta steps on the path ODE `J_x dx/dt = -dH/dt`.
+//! Predictors on the path ODE `J_x dx/dt = -dH/dt`: explicit Runge-Kutta steps (one
+//! factorization per extra stage) and Hermite extrapolation through accepted points (none).
 
 use super::linalg::{FactorError, LinearSolver};
 use super::options::Predictor;
@@ -80,7 +81,101 @@ fn axpy<S: Scalar, const N: usize>(x: &SVector<S, N>, c: f64, v: &SVector<S, N>)
     out
 }
 
-/// The predicted point at `t + dt` from `(x, t)` with tangent `k1` at `(x, t)`.
+/// Accepted points before the current one, with their tangents (oldest first), for the
+/// multistep [`Predictor::Hermite`]. Fixed-size: no allocation.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct History<S: Scalar, const NX: usize> {
+    t: [f64; 2],
+    x: [SVector<S, NX>; 2],
+    v: [SVector<S, NX>; 2],
+    len: usize,
+}
+
+impl<S: Scalar, const NX: usize> History<S, NX> {
+    pub(crate) fn new() -> Self {
+        Self { t: [0.0; 2], x: [SVector::zeros(); 2], v: [SVector::zeros(); 2], len: 0 }
+    }
+
+    /// Forgets every point (start, or a drag step that left the path).
+    #[inline]
+    pub(crate) fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Appends a point, dropping the oldest beyond two.
+    #[inline]
+    pub(crate) fn push(&mut self, t: f64, x: &SVector<S, NX>, v: &SVector<S, NX>) {
+        if self.len == 2 {
+            self.t[0] = self.t[1];
+            self.x[0] = self.x[1];
+            self.v[0] = self.v[1];
+            self.len = 1;
+        }
+        self.t[self.len] = t;
+        self.x[self.len] = *x;
+        self.v[self.len] = *v;
+        self.len += 1;
+    }
+}
+
+/// Hermite extrapolation to `t + dt` through the last `m - 1` history points and `(t, x, v)`,
+/// each with its value and tangent (confluent divided differences, Newton form, times relative
+/// to `t`): the polynomial of degree `2m - 1`.
+#[inline]
+fn hermite<S: Scalar, const NX: usize>(
+    history: &History<S, NX>,
+    m: usize,
+    x: &SVector<S, NX>,
+    t: f64,
+    v: &SVector<S, NX>,
+    dt: f64,
+) -> SVector<S, NX> {
+    const MAX: usize = 6;
+    let n = 2 * m;
+    let first = history.len + 1 - m;
+    let point = |i: usize| -> (f64, &SVector<S, NX>, &SVector<S, NX>) {
+        let k = first + i;
+        if k < history.len {
+            (history.t[k] - t, &history.x[k], &history.v[k])
+        } else {
+            (0.0, x, v)
+        }
+    };
+    let mut z = [0.0; MAX];
+    let mut d = [SVector::<S, NX>::zeros(); MAX];
+    for j in 0..n {
+        let (tj, xj, _) = point(j / 2);
+        z[j] = tj;
+        d[j] = *xj;
+    }
+    // First differences: the tangent at a repeated node, else the slope.
+    for j in (1..n).rev() {
+        if j % 2 == 1 {
+            d[j] = *point(j / 2).2;
+        } else {
+            let inv = S::from_real(1.0 / (z[j] - z[j - 1]));
+            d[j] = (d[j] - d[j - 1]) * inv;
+        }
+    }
+    for k in 2..n {
+        for j in (k..n).rev() {
+            let inv = S::from_real(1.0 / (z[j] - z[j - k]));
+            d[j] = (d[j] - d[j - 1]) * inv;
+        }
+    }
+    let mut p = d[n - 1];
+    for j in (0..n - 1).rev() {
+        let c = S::from_real(dt - z[j]);
+        for i in 0..NX {
+            p[i] = p[i] * c + d[j][i];
+        }
+    }
+    p
+}
+
+/// The predicted point at `t + dt` from `(x, t)` with tangent `k1` at `(x, t)` (and, for
+/// [`Predictor::Hermite`], the accepted points before it).
+#[allow(clippy::too_many_arguments)]
 #[inline]
 pub(crate) fn predict<S, H, const NX: usize, const NF: usize>(
     kind: Predictor,
@@ -89,6 +184,7 @@ pub(crate) fn predict<S, H, const NX: usize, const NF: usize>(
     t: f64,
     dt: f64,
     k1: &SVector<S, NX>,
+    history: &History<S, NX>,
     solver: &mut LinearSolver<S, NX, NF>,
     stats: &mut TrackStats,
 ) -> Result<SVector<S, NX>, Trouble>
@@ -96,9 +192,17 @@ where
     S: Scalar,
     H: Homotopy<S, NX, NF>,
 {
+    if let Predictor::Hermite { points } = kind {
+        let m = (points.clamp(2, 3) as usize).min(history.len + 1);
+        if m >= 2 {
+            let xp = hermite(history, m, x, t, k1, dt);
+            return if all_finite(&xp) { Ok(xp) } else { Err(Trouble::NonFinite) };
+        }
+    }
     let xp = match kind {
         Predictor::Euler => axpy(x, dt, k1),
-        Predictor::Heun => {
+        // Hermite without enough history starts with Heun.
+        Predictor::Heun | Predictor::Hermite { .. } => {
             let k2 = tangent(h, &axpy(x, dt, k1), t + dt, solver, stats)?;
             let c = S::from_real(0.5 * dt);
             let mut out = *x;

@@ -1,0 +1,318 @@
+//! Row lanes: generated code evaluates the equations of [`LANES`] rows (correspondences) at
+//! once, one row per lane.
+//!
+//! Why: every row of a declared problem runs the *same* straight-line code on its own
+//! parameters, so the rows are the natural SIMD dimension — no lock-step tracking of several
+//! paths is needed. A lane value is a struct of `[f64; LANES]` arrays ([`F64x4`], and [`C64x4`]
+//! with split real and imaginary parts, so a complex product is six lane-wise operations and
+//! never a shuffle); the element-wise loops compile to vector instructions. Generated row
+//! kernels are generic over [`Lanes`]; [`crate::Scalar::Lanes`] names the lane type of a scalar,
+//! and [`gather_rows`] / [`scatter_rows`] move rows between the packed parameter vector and the
+//! lanes.
+
+use crate::Scalar;
+use nalgebra::{Complex, SMatrix, SVector};
+use std::ops::{Add, Mul, Neg, Sub};
+
+/// Rows evaluated together.
+pub const LANES: usize = 4;
+
+/// Arithmetic on `LANES` values of a scalar at once: what generated row kernels need.
+pub trait Lanes:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+{
+    /// The scalar of one lane.
+    type Scalar: Scalar;
+    /// The real constant `c` in every lane.
+    fn from_real(c: f64) -> Self;
+    /// Every lane multiplied by the real `c`.
+    fn scale(self, c: f64) -> Self;
+    /// `v` in every lane.
+    fn splat(v: Self::Scalar) -> Self;
+    /// Lane `i`.
+    fn get(&self, i: usize) -> Self::Scalar;
+    /// Sets lane `i`.
+    fn set(&mut self, i: usize, v: Self::Scalar);
+}
+
+/// Four `f64`, one per lane (32-byte aligned).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[repr(C, align(32))]
+pub struct F64x4(pub [f64; LANES]);
+
+/// Four complex numbers, real and imaginary parts in separate [`F64x4`].
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct C64x4 {
+    /// Real parts.
+    pub re: F64x4,
+    /// Imaginary parts.
+    pub im: F64x4,
+}
+
+macro_rules! lanewise {
+    ($trait:ident, $method:ident, $op:tt) => {
+        impl $trait for F64x4 {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, o: Self) -> Self {
+                F64x4([self.0[0] $op o.0[0], self.0[1] $op o.0[1], self.0[2] $op o.0[2], self.0[3] $op o.0[3]])
+            }
+        }
+    };
+}
+lanewise!(Add, add, +);
+lanewise!(Sub, sub, -);
+lanewise!(Mul, mul, *);
+
+impl Neg for F64x4 {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        F64x4([-self.0[0], -self.0[1], -self.0[2], -self.0[3]])
+    }
+}
+
+impl F64x4 {
+    #[inline(always)]
+    fn times(self, c: f64) -> Self {
+        F64x4([self.0[0] * c, self.0[1] * c, self.0[2] * c, self.0[3] * c])
+    }
+}
+
+impl Lanes for F64x4 {
+    type Scalar = f64;
+    #[inline(always)]
+    fn from_real(c: f64) -> Self {
+        F64x4([c; LANES])
+    }
+    #[inline(always)]
+    fn scale(self, c: f64) -> Self {
+        self.times(c)
+    }
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        F64x4([v; LANES])
+    }
+    #[inline(always)]
+    fn get(&self, i: usize) -> f64 {
+        self.0[i]
+    }
+    #[inline(always)]
+    fn set(&mut self, i: usize, v: f64) {
+        self.0[i] = v;
+    }
+}
+
+impl Add for C64x4 {
+    type Output = Self;
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        C64x4 { re: self.re + o.re, im: self.im + o.im }
+    }
+}
+
+impl Sub for C64x4 {
+    type Output = Self;
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        C64x4 { re: self.re - o.re, im: self.im - o.im }
+    }
+}
+
+impl Mul for C64x4 {
+    type Output = Self;
+    /// `(a + ib)(c + id) = (ac - bd) + i(ad + bc)`, the same operations as `Complex<f64>`'s
+    /// product (so the lanes agree with scalar evaluation bit for bit).
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        C64x4 { re: self.re * o.re - self.im * o.im, im: self.re * o.im + self.im * o.re }
+    }
+}
+
+impl Neg for C64x4 {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        C64x4 { re: -self.re, im: -self.im }
+    }
+}
+
+impl Lanes for C64x4 {
+    type Scalar = Complex<f64>;
+    #[inline(always)]
+    fn from_real(c: f64) -> Self {
+        C64x4 { re: F64x4::splat(c), im: F64x4::splat(0.0) }
+    }
+    #[inline(always)]
+    fn scale(self, c: f64) -> Self {
+        C64x4 { re: self.re.times(c), im: self.im.times(c) }
+    }
+    #[inline(always)]
+    fn splat(v: Complex<f64>) -> Self {
+        C64x4 { re: F64x4::splat(v.re), im: F64x4::splat(v.im) }
+    }
+    #[inline(always)]
+    fn get(&self, i: usize) -> Complex<f64> {
+        Complex::new(self.re.0[i], self.im.0[i])
+    }
+    #[inline(always)]
+    fn set(&mut self, i: usize, v: Complex<f64>) {
+        self.re.0[i] = v.re;
+        self.im.0[i] = v.im;
+    }
+}
+
+/// A row-kernel evaluation, run by [`dispatch`] with the widest vector instructions the CPU
+/// has. Generated code wraps each evaluation's arguments in a small struct implementing this,
+/// with `run` marked `#[inline(always)]` so that the whole kernel is compiled inside
+/// [`dispatch`]'s instruction-set variants.
+pub trait Kernel {
+    /// Evaluates.
+    fn run(self);
+}
+
+/// Runs `kernel` with AVX2 and FMA code when the CPU has both (checked at run time, cached by
+/// the standard library), else with the baseline instruction set. Both variants compute the
+/// same operations in the same order (Rust does not contract `a * b + c` into an FMA), so the
+/// results are bit-identical.
+#[inline(always)]
+pub fn dispatch<K: Kernel>(kernel: K) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+            // SAFETY: `run_avx2` only requires AVX2 and FMA, just detected on this CPU.
+            #[allow(unsafe_code)]
+            unsafe {
+                run_avx2(kernel)
+            };
+            return;
+        }
+    }
+    kernel.run()
+}
+
+/// [`Kernel::run`] compiled for AVX2 + FMA (the inlined kernel's lane loops become 256-bit
+/// vector instructions).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[allow(unsafe_code)]
+unsafe fn run_avx2<K: Kernel>(kernel: K) {
+    kernel.run()
+}
+
+/// The unknowns, each broadcast to every lane.
+#[inline(always)]
+pub fn splat_all<S: Scalar, const NX: usize>(x: &SVector<S, NX>) -> [S::Lanes; NX] {
+    // Plain loops: `std::array::from_fn` was left out of line here (measured).
+    let mut out = [<S::Lanes as Lanes>::from_real(0.0); NX];
+    for k in 0..NX {
+        out[k] = <S::Lanes as Lanes>::splat(x[k]);
+    }
+    out
+}
+
+/// The kernel parameters of rows `first .. first + LANES` (one row per lane; lanes past
+/// `rows` get zeros): the `row_len` parameters of each row, then the `K - row_len` global
+/// parameters (stored after all rows in `p`) broadcast.
+#[inline(always)]
+pub fn gather_rows<S: Scalar, const NP: usize, const K: usize>(
+    p: &SVector<S, NP>,
+    first: usize,
+    rows: usize,
+    row_len: usize,
+) -> [S::Lanes; K] {
+    let lanes = (rows - first).min(LANES);
+    let mut out = [<S::Lanes as Lanes>::from_real(0.0); K];
+    for lane in 0..lanes {
+        let row = &p.as_slice()[(first + lane) * row_len..(first + lane + 1) * row_len];
+        for (o, &v) in out.iter_mut().zip(row) {
+            o.set(lane, v);
+        }
+    }
+    for k in row_len..K {
+        out[k] = <S::Lanes as Lanes>::splat(p[rows * row_len + (k - row_len)]);
+    }
+    out
+}
+
+/// Writes the residuals `f` (`E` equations per row) of rows `first ..` into `out` (row-major:
+/// row `r`'s equations at `r * E ..`).
+#[inline(always)]
+pub fn scatter_residual<S: Scalar, const NF: usize, const E: usize>(
+    f: &[S::Lanes; E],
+    first: usize,
+    rows: usize,
+    out: &mut SVector<S, NF>,
+) {
+    for lane in 0..(rows - first).min(LANES) {
+        for e in 0..E {
+            out[(first + lane) * E + e] = f[e].get(lane);
+        }
+    }
+}
+
+/// Writes the Jacobian rows `j` (`E` equations per row, row-major `E x NX`) of rows `first ..`
+/// into `out`.
+#[inline(always)]
+pub fn scatter_jacobian<S: Scalar, const NF: usize, const NX: usize, const EX: usize>(
+    j: &[S::Lanes; EX],
+    first: usize,
+    rows: usize,
+    out: &mut SMatrix<S, NF, NX>,
+) {
+    let e_per_row = EX / NX;
+    for lane in 0..(rows - first).min(LANES) {
+        for e in 0..e_per_row {
+            let r = (first + lane) * e_per_row + e;
+            for k in 0..NX {
+                out[(r, k)] = j[e * NX + k].get(lane);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn complex_lanes_match_complex_arithmetic_bit_for_bit() {
+        let a = [Complex::new(1.5, -2.0), Complex::new(0.3, 0.7), Complex::new(-4.0, 1e-3), Complex::new(2.0, 0.0)];
+        let b = [Complex::new(-0.5, 3.0), Complex::new(1e5, -2.5), Complex::new(0.0, 1.0), Complex::new(7.0, -7.0)];
+        let mut la = C64x4::default();
+        let mut lb = C64x4::default();
+        for i in 0..LANES {
+            la.set(i, a[i]);
+            lb.set(i, b[i]);
+        }
+        let (p, s, d, n, k) = (la * lb, la + lb, la - lb, -la, la.scale(0.25));
+        for i in 0..LANES {
+            assert_eq!(p.get(i), a[i] * b[i]);
+            assert_eq!(s.get(i), a[i] + b[i]);
+            assert_eq!(d.get(i), a[i] - b[i]);
+            assert_eq!(n.get(i), -a[i]);
+            assert_eq!(k.get(i), a[i] * 0.25);
+        }
+        assert_eq!(C64x4::from_real(2.0).get(3), Complex::new(2.0, 0.0));
+        assert_eq!(C64x4::splat(a[1]).get(2), a[1]);
+    }
+
+    #[test]
+    fn rows_round_trip_through_lanes() {
+        // 5 rows of 2 parameters, then one global: lanes of rows 4.. hold row 4 and zeros.
+        let p = SVector::<f64, 11>::from_fn(|i, _| i as f64 + 1.0);
+        let first: [F64x4; 3] = gather_rows::<f64, 11, 3>(&p, 0, 5, 2);
+        assert_eq!(first[0].0, [1.0, 3.0, 5.0, 7.0]);
+        assert_eq!(first[1].0, [2.0, 4.0, 6.0, 8.0]);
+        assert_eq!(first[2].0, [11.0; 4]);
+        let last: [F64x4; 3] = gather_rows::<f64, 11, 3>(&p, 4, 5, 2);
+        assert_eq!(last[0].0, [9.0, 0.0, 0.0, 0.0]);
+        let mut f = SVector::<f64, 5>::zeros();
+        scatter_residual::<f64, 5, 1>(&[first[0]], 0, 5, &mut f);
+        scatter_residual::<f64, 5, 1>(&[last[0]], 4, 5, &mut f);
+        assert_eq!(f.as_slice(), &[1.0, 3.0, 5.0, 7.0, 9.0]);
+        let mut j = SMatrix::<f64, 5, 2>::zeros();
+        scatter_jacobian::<f64, 5, 2, 2>(&[first[0], first[1]], 0, 5, &mut j);
+        assert_eq!((j[(3, 0)], j[(3, 1)], j[(4, 0)]), (7.0, 8.0, 0.0));
+    }
+}

@@ -194,16 +194,15 @@ impl<const N: usize> AllRootsResult<N> {
     }
 }
 
-/// The parameter path of one solve.
+/// The parameter path of one solve, to `p1` (the target or an equivalent point).
 fn homotopy_for<P, const N: usize, const NP: usize>(
     start: &StartSystem<N, NP>,
-    target: &SVector<f64, NP>,
+    p1: SVector<C, NP>,
     options: &AllRootsOptions,
 ) -> ParameterHomotopy<P, C, NP>
 where
     P: ParamDerivative<N, N, NP>,
 {
-    let p1 = to_complex(target);
     if options.bend > 0.0 {
         let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
         let mut b = crate::monodromy::random_complex_vector::<NP>(&mut rng, 1.0);
@@ -230,7 +229,7 @@ pub fn solve_all<P, const N: usize, const NP: usize>(
 where
     P: ParamDerivative<N, N, NP>,
 {
-    let h = homotopy_for::<P, N, NP>(start, target, options);
+    let h = homotopy_for::<P, N, NP>(start, to_complex(target), options);
     solve_along::<P, _, N, NP>(&h, start, target, options)
 }
 
@@ -245,7 +244,24 @@ pub fn solve_all_fast<P, const N: usize, const NP: usize, const NC: usize>(
 where
     P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
 {
-    let base = homotopy_for::<P, N, NP>(start, target, options);
+    solve_all_fast_via::<P, N, NP, NC>(start, target, &to_complex(target), options)
+}
+
+/// [`solve_all_fast`] along the segment to `equivalent`, a complex parameter point whose system
+/// has the same solutions as the target's (`F(x; equivalent) = D F(x; target)` with `D`
+/// invertible and independent of `x`, e.g. rescaled equations). Problems whose parameters have
+/// such redundancy (GRPS: the scale of each bearing) pick the representative closest to the
+/// start system, which shortens the paths; real end points are still polished on `target`.
+pub fn solve_all_fast_via<P, const N: usize, const NP: usize, const NC: usize>(
+    start: &StartSystem<N, NP>,
+    target: &SVector<f64, NP>,
+    equivalent: &SVector<C, NP>,
+    options: &AllRootsOptions,
+) -> AllRootsResult<N>
+where
+    P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
+{
+    let base = homotopy_for::<P, N, NP>(start, *equivalent, options);
     match CoefficientParameterHomotopy::<P, NP, NC>::new::<N>(base) {
         Some(h) => solve_along::<P, _, N, NP>(&h, start, target, options),
         None => solve_along::<P, _, N, NP>(&base, start, target, options),

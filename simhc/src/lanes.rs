@@ -19,7 +19,7 @@ pub const LANES: usize = 4;
 
 /// Arithmetic on `LANES` values of a scalar at once: what generated row kernels need.
 pub trait Lanes:
-    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+    Copy + std::fmt::Debug + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
 {
     /// The scalar of one lane.
     type Scalar: Scalar;

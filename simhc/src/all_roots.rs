@@ -22,6 +22,7 @@ use crate::tracker::{
     newton, track, AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackError, TrackStats,
     TrackerOptions,
 };
+use crate::lanes::{C64x4, Lanes, LANES};
 use crate::{CoefficientForm, ParamDerivative};
 use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
@@ -417,6 +418,9 @@ pub struct CoefficientParameterHomotopy<P, const NP: usize, const NC: usize> {
     base: ParameterHomotopy<P, C, NP>,
     /// `dc/dt = sum_k dc[k] t^k`.
     dc: Vec<SVector<C, NC>>,
+    /// The same polynomial in the row-lane layout of [`CoefficientForm::coefficient_part_poly`]
+    /// (empty when the problem has no row kernels).
+    dc_lanes: Vec<C64x4>,
 }
 
 impl<P, const NP: usize, const NC: usize> std::fmt::Debug
@@ -478,7 +482,36 @@ impl<P, const NP: usize, const NC: usize> CoefficientParameterHomotopy<P, NP, NC
         while dc.len() > 1 && dc.last().is_some_and(|v| v.camax() <= 1e-13 * scale) {
             dc.pop();
         }
-        Some(Self { base, dc })
+        let dc_lanes = match P::ROW_LAYOUT {
+            Some((rows, per_row)) if rows * per_row == NC && rows > 0 => {
+                let chunks = rows.div_ceil(LANES);
+                let mut lanes = vec![C64x4::default(); dc.len() * chunks * per_row];
+                for (k, dck) in dc.iter().enumerate() {
+                    for r in 0..rows {
+                        let (chunk, lane) = (r / LANES, r % LANES);
+                        for m in 0..per_row {
+                            lanes[(k * chunks + chunk) * per_row + m].set(lane, dck[r * per_row + m]);
+                        }
+                    }
+                }
+                lanes
+            }
+            _ => Vec::new(),
+        };
+        Some(Self { base, dc, dc_lanes })
+    }
+
+    /// `dH/dt` at `(x, t)`.
+    #[inline]
+    fn dh_dt<const N: usize>(&self, x: &SVector<C, N>, t: f64, dh: &mut SVector<C, N>)
+    where
+        P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
+    {
+        if self.dc_lanes.is_empty() {
+            P::coefficient_part(x, &self.dc_at(t), dh);
+        } else {
+            P::coefficient_part_poly(x, t, &self.dc_lanes, dh);
+        }
     }
 
     /// `dc/dt (t)` by Horner in the real `t` (real scalings over plain slices, which
@@ -513,7 +546,7 @@ where
 
     #[inline]
     fn dt(&self, x: &SVector<C, N>, t: f64, dh: &mut SVector<C, N>) {
-        P::coefficient_part(x, &self.dc_at(t), dh);
+        self.dh_dt(x, t, dh);
     }
 
     #[inline]
@@ -530,7 +563,7 @@ where
         dh: &mut SVector<C, N>,
     ) {
         P::jacobian(x, &self.base.params_at(t), jx);
-        P::coefficient_part(x, &self.dc_at(t), dh);
+        self.dh_dt(x, t, dh);
     }
 }
 

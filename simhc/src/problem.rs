@@ -76,4 +76,26 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
     /// The part of `Fc` linear in the coefficients, evaluated at `dc`: `dFc/dc (x) * dc`, which
     /// is `dH/dt` of the coefficient line with `dc = c1 - c0`.
     fn coefficient_part<S: Scalar>(x: &SVector<S, NX>, dc: &SVector<S, NC>, out: &mut SVector<S, NF>);
+
+    /// `Some((rows, per_row))` when [`CoefficientForm::coefficient_part_poly`] is available:
+    /// the coefficients are `rows` blocks of `per_row` (row `r`'s at `r * per_row ..`) evaluated
+    /// by a row kernel ([`crate::lanes`]), and the global equations have no coefficients.
+    const ROW_LAYOUT: Option<(usize, usize)> = None;
+
+    /// [`CoefficientForm::coefficient_part`] at `dc(t) = sum_k t^k dc_k`, with the polynomial
+    /// given in row-lane layout: with `chunks = ceil(rows / LANES)`, entry
+    /// `(k * chunks + chunk) * per_row + m` holds coefficient `m` of rows
+    /// `chunk * LANES ..` (one per lane) at degree `k`; `poly.len()` is a multiple of
+    /// `chunks * per_row`. The row kernels then take `dc(t)` straight from the lanes (no
+    /// gathering, Horner in `t` vectorized). Only for `ROW_LAYOUT = Some(..)`; the default (and
+    /// a `poly` of the wrong length) writes NaN.
+    fn coefficient_part_poly<S: Scalar>(
+        x: &SVector<S, NX>,
+        t: f64,
+        poly: &[S::Lanes],
+        out: &mut SVector<S, NF>,
+    ) {
+        let _ = (x, t, poly);
+        out.fill(S::from_real(f64::NAN));
+    }
 }

@@ -408,15 +408,8 @@ fn row_outputs(
     vars: &VarTable,
     shape: RowShape,
     with_j: bool,
-    grouped: bool,
 ) -> (Vec<(TokenStream, NodeId)>, Vec<(TokenStream, NodeId)>) {
-    let node = |dag: &mut Dag, poly: &crate::poly::Poly| {
-        if grouped {
-            dag.polynomial_grouped(poly, vars)
-        } else {
-            dag.polynomial(poly, vars)
-        }
-    };
+    let node = |dag: &mut Dag, poly: &crate::poly::Poly| dag.polynomial(poly, vars);
     let f = (0..shape.epr).map(|i| (n(i).into_token_stream(), node(dag, &eqs[i]))).collect();
     let mut j = Vec::new();
     if with_j {
@@ -431,19 +424,13 @@ fn row_outputs(
 
 /// Scalar code of the global equations (`eqs[rows * epr ..]`) into `f` / `j`, in a block; empty
 /// without global equations. Emitted *before* the row loop: it may zero-fill the whole output.
-fn global_part(eqs: &[crate::poly::Poly], vars: &VarTable, shape: RowShape, with_f: bool, with_j: bool, grouped: bool) -> TokenStream {
+fn global_part(eqs: &[crate::poly::Poly], vars: &VarTable, shape: RowShape, with_f: bool, with_j: bool) -> TokenStream {
     let first = shape.rows * shape.epr;
     if first == shape.nf {
         return quote!();
     }
     let mut dag = Dag::default();
-    let node = |dag: &mut Dag, poly: &crate::poly::Poly| {
-        if grouped {
-            dag.polynomial_grouped(poly, vars)
-        } else {
-            dag.polynomial(poly, vars)
-        }
-    };
+    let node = |dag: &mut Dag, poly: &crate::poly::Poly| dag.polynomial(poly, vars);
     let mut f = Vec::new();
     let mut j = Vec::new();
     for g in first..shape.nf {
@@ -487,10 +474,10 @@ impl RowKernels {
         let npk = one.vars.np();
 
         let mut dag = Dag::default();
-        let (f, _) = row_outputs(&mut dag, &one.equations, &one.vars, shape, false, false);
+        let (f, _) = row_outputs(&mut dag, &one.equations, &one.vars, shape, false);
         let kernel_residual = render_with(&dag, &one.vars, &[(quote!(f), &f)]);
         let mut dag = Dag::default();
-        let (f, j) = row_outputs(&mut dag, &one.equations, &one.vars, shape, true, false);
+        let (f, j) = row_outputs(&mut dag, &one.equations, &one.vars, shape, true);
         let kernel_fused = render_with(&dag, &one.vars, &[(quote!(f), &f), (quote!(j), &j)]);
         let kernel_residual = rename_row_input(kernel_residual, "p");
         let kernel_fused = rename_row_input(kernel_fused, "p");
@@ -498,7 +485,7 @@ impl RowKernels {
         let lp = |kernel: &str, with_j: bool, f_out: Option<TokenStream>, j_out: Option<TokenStream>| {
             row_loop(shape, type_name, kernel, quote!(p), row_len, npk, with_j, f_out, j_out)
         };
-        let g = |f: bool, j: bool| global_part(&inst.equations, &inst.vars, shape, f, j, false);
+        let g = |f: bool, j: bool| global_part(&inst.equations, &inst.vars, shape, f, j);
         let (g_r, g_j, g_f) = (g(true, false), g(false, true), g(true, true));
         let residual_loop = lp("__row_residual", false, Some(quote!(f)), None);
         let jacobian_loop = lp("__row_residual_jacobian", true, None, Some(quote!(j)));
@@ -529,7 +516,7 @@ impl RowKernels {
         inst: &Instance,
         split: &crate::lower::CoefficientSplit,
         type_name: &Ident,
-    ) -> Option<(TokenStream, TokenStream, TokenStream, TokenStream)> {
+    ) -> Option<(TokenStream, TokenStream, TokenStream, TokenStream, TokenStream)> {
         let one_split = crate::lower::split_coefficients(&self.one);
         if !row_blocks(split, &one_split, inst, &self.one, self.row_len) {
             return None;
@@ -538,20 +525,20 @@ impl RowKernels {
         let nc1 = one_split.table.len();
         let vars = &one_split.vars;
         let mut dag = Dag::default();
-        let (f, j) = row_outputs(&mut dag, &one_split.equations, vars, shape, true, true);
+        let (f, j) = row_outputs(&mut dag, &one_split.equations, vars, shape, true);
         let k_fused = rename_row_input(render_with(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]), "c");
         let mut dag = Dag::default();
-        let (f, _) = row_outputs(&mut dag, &one_split.equations, vars, shape, false, true);
+        let (f, _) = row_outputs(&mut dag, &one_split.equations, vars, shape, false);
         let k_residual = rename_row_input(render_with(&dag, vars, &[(quote!(f), &f)]), "c");
         let mut dag = Dag::default();
-        let (f, _) = row_outputs(&mut dag, &one_split.linear, vars, shape, false, true);
+        let (f, _) = row_outputs(&mut dag, &one_split.linear, vars, shape, false);
         let k_linear = rename_row_input(render_with(&dag, vars, &[(quote!(f), &f)]), "c");
 
         let nc = split.table.len();
         let lp = |kernel: &str, src: TokenStream, with_j: bool, f_out: TokenStream, j_out: Option<TokenStream>| {
             row_loop(shape, type_name, kernel, src, nc1, nc1, with_j, Some(f_out), j_out)
         };
-        let g = |eqs: &[crate::poly::Poly], f: bool, j: bool| global_part(eqs, &split.vars, shape, f, j, true);
+        let g = |eqs: &[crate::poly::Poly], f: bool, j: bool| global_part(eqs, &split.vars, shape, f, j);
         let fused_body = {
             let gp = g(&split.equations, true, true);
             let lp = lp("__row_coeff_residual_jacobian", quote!(c), true, quote!(f), Some(quote!(j)));
@@ -593,7 +580,63 @@ impl RowKernels {
                 k_linear,
             ),
         ];
-        Some((quote!(#(#items)*), fused, residual, linear))
+        // `coefficient_part_poly`: only when the global equations' linear part vanishes (no
+        // coefficients outside the row blocks).
+        let first_global = shape.rows * shape.epr;
+        let poly_fn = if split.linear[first_global..].iter().all(|p| p.is_zero()) {
+            let (rows, nc1_t, epr, nx_t, nf_t) = (n(shape.rows), n(nc1), n(shape.epr), n(shape.nx), n(shape.nf));
+            let lanes = quote!(<S as ::simhc::Scalar>::Lanes);
+            let zero = quote!(<#lanes as ::simhc::lanes::Lanes>::from_real(0.0));
+            let zero_globals = (first_global..shape.nf).map(|g| {
+                let g = n(g);
+                quote!(out[#g] = S::from_real(0.0);)
+            });
+            let body = quote! {
+                let chunks = (#rows + ::simhc::lanes::LANES - 1) / ::simhc::lanes::LANES;
+                let block = chunks * #nc1_t;
+                if poly.is_empty() || poly.len() % block != 0 {
+                    out.fill(S::from_real(f64::NAN));
+                    return;
+                }
+                let degrees = poly.len() / block;
+                #(#zero_globals)*
+                let xl = ::simhc::lanes::splat_all(x);
+                for chunk in 0..chunks {
+                    let mut rl = [#zero; #nc1_t];
+                    for k in (0..degrees).rev() {
+                        let base = (k * chunks + chunk) * #nc1_t;
+                        for (m, r) in rl.iter_mut().enumerate() {
+                            *r = ::simhc::lanes::Lanes::scale(*r, t) + poly[base + m];
+                        }
+                    }
+                    let mut fl = [#zero; #epr];
+                    #type_name::__row_coeff_linear(&xl, &rl, &mut fl);
+                    ::simhc::lanes::scatter_residual(&fl, chunk * ::simhc::lanes::LANES, #rows, out);
+                }
+            };
+            let args = [
+                (quote!(x), quote!(&'a ::simhc::__private::nalgebra::SVector<S, #nx_t>)),
+                (quote!(t), quote!(f64)),
+                (quote!(poly), quote!(&'a [<S as ::simhc::Scalar>::Lanes])),
+                (quote!(out), quote!(&'a mut ::simhc::__private::nalgebra::SVector<S, #nf_t>)),
+            ];
+            let wrapped = dispatched(&args, body);
+            quote! {
+                const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((#rows, #nc1_t));
+                #[inline]
+                fn coefficient_part_poly<S: ::simhc::Scalar>(
+                    x: &::simhc::__private::nalgebra::SVector<S, #nx_t>,
+                    t: f64,
+                    poly: &[<S as ::simhc::Scalar>::Lanes],
+                    out: &mut ::simhc::__private::nalgebra::SVector<S, #nf_t>,
+                ) {
+                    #wrapped
+                }
+            }
+        } else {
+            quote!()
+        };
+        Some((quote!(#(#items)*), fused, residual, linear, poly_fn))
     }
 }
 
@@ -601,7 +644,7 @@ impl RowKernels {
 fn global_linear(eqs: &[crate::poly::Poly], vars: &VarTable, shape: RowShape) -> TokenStream {
     let first = shape.rows * shape.epr;
     let mut dag = Dag::default();
-    let f: Vec<_> = (first..shape.nf).map(|g| (n(g).into_token_stream(), dag.polynomial_grouped(&eqs[g], vars))).collect();
+    let f: Vec<_> = (first..shape.nf).map(|g| (n(g).into_token_stream(), dag.polynomial(&eqs[g], vars))).collect();
     let body = render_with(&dag, vars, &[(quote!(out), &f)]);
     quote!({ let c = dc; #body })
 }
@@ -799,7 +842,7 @@ fn instance(decl: &Declaration, inst: &Instance) -> TokenStream {
     let split = crate::lower::split_coefficients(inst);
     let nc = n(split.table.len());
     let laned_coefficients = row_kernels.as_ref().and_then(|k| k.coefficient_form(inst, &split, &type_name));
-    let coefficient_form = coefficient_form(inst, &split, &type_name, laned_coefficients.as_ref().map(|l| (&l.1, &l.2, &l.3)));
+    let coefficient_form = coefficient_form(inst, &split, &type_name, laned_coefficients.as_ref().map(|l| (&l.1, &l.2, (&l.3, &l.4))));
     let coefficient_items = laned_coefficients.as_ref().map(|l| l.0.clone()).unwrap_or_default();
 
     // Packing helpers: rows then globals.
@@ -933,7 +976,7 @@ fn coefficient_form(
     inst: &Instance,
     split: &crate::lower::CoefficientSplit,
     type_name: &Ident,
-    laned: Option<(&TokenStream, &TokenStream, &TokenStream)>,
+    laned: Option<(&TokenStream, &TokenStream, (&TokenStream, &TokenStream))>,
 ) -> TokenStream {
     let (nx, nf, np, nc) = (n(inst.vars.nx()), n(inst.equations.len()), n(inst.vars.np()), n(split.table.len()));
     let sv = quote!(::simhc::__private::nalgebra::SVector);
@@ -958,7 +1001,7 @@ fn coefficient_form(
             .enumerate()
             .map(|(i, f)| {
                 let i = n(i);
-                (quote!(#i), dag.polynomial_grouped(f, vars))
+                (quote!(#i), dag.polynomial(f, vars))
             })
             .collect()
     };
@@ -968,14 +1011,14 @@ fn coefficient_form(
             for k in 0..inst.vars.nx() {
                 let d = f.diff(k as Var);
                 let (i, k) = (n(i), n(k));
-                out.push((quote!((#i, #k)), dag.polynomial_grouped(&d, vars)));
+                out.push((quote!((#i, #k)), dag.polynomial(&d, vars)));
             }
         }
         out
     };
 
-    let (fused, residual, linear) = match laned {
-        Some((fused, residual, linear)) => (fused.clone(), residual.clone(), linear.clone()),
+    let (fused, residual, linear, linear_poly) = match laned {
+        Some((fused, residual, (linear, linear_poly))) => (fused.clone(), residual.clone(), linear.clone(), linear_poly.clone()),
         None => {
             let mut dag = Dag::default();
             let f = residual_of(&mut dag, &split.equations);
@@ -990,7 +1033,7 @@ fn coefficient_form(
             let lin = residual_of(&mut dag, &split.linear);
             // The linear part reads its coefficients from `dc` (renamed `c`).
             let linear = render_with(&dag, vars, &[(quote!(out), &lin)]);
-            (fused, residual, quote!(let c = dc; #linear))
+            (fused, residual, quote!(let c = dc; #linear), quote!())
         }
     };
 
@@ -1018,6 +1061,7 @@ fn coefficient_form(
             fn coefficient_part<S: ::simhc::Scalar>(x: &#sv<S, #nx>, dc: &#sv<S, #nc>, out: &mut #sv<S, #nf>) {
                 #linear
             }
+            #linear_poly
         }
     }
 }

@@ -14,12 +14,13 @@
 //! `NX * eps * max diag(J^H J)`, i.e. `kappa(J) >~ 1e7`. Square-up
 //! ([`crate::homotopy::SquaredUp`]) avoids the squaring when that matters.
 
+use super::lane_lu::{self, LaneLu};
 use crate::Scalar;
 use nalgebra::{SMatrix, SVector};
 
 /// The factorization met a (numerically) singular matrix or non-finite entries.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum FactorError {
+pub enum FactorError {
     /// Pivot below the relative threshold.
     Singular,
     /// NaN or infinity in the matrix.
@@ -38,18 +39,27 @@ pub(crate) struct LinearSolver<S: Scalar, const NX: usize, const NF: usize> {
     j: SMatrix<S, NF, NX>,
     /// Whether `m` holds a valid factorization.
     valid: bool,
+    /// The square factorization on lanes (used when [`lane_lu::pays`]).
+    lanes: LaneLu<S, NX>,
 }
 
 impl<S: Scalar, const NX: usize, const NF: usize> LinearSolver<S, NX, NF> {
     pub(crate) fn new() -> Self {
-        Self { m: SMatrix::zeros(), perm: [0; NX], j: SMatrix::zeros(), valid: false }
+        Self { m: SMatrix::zeros(), perm: [0; NX], j: SMatrix::zeros(), valid: false, lanes: LaneLu::new() }
     }
 
     /// Factorizes `j` (square: LU of `j`; overdetermined: Cholesky of `j^H j`).
     #[inline]
     pub(crate) fn factor(&mut self, j: &SMatrix<S, NF, NX>) -> Result<(), FactorError> {
         self.valid = false;
-        if NF == NX {
+        if NF == NX && lane_lu::pays(NX) {
+            let (scale, finite) = norm1_finite::<S, NX>(j.as_slice());
+            if !finite {
+                return Err(FactorError::NonFinite);
+            }
+            let a = SMatrix::<S, NX, NX>::from_column_slice(j.as_slice());
+            self.lanes.factor(&a, scale * (NX as f64) * f64::EPSILON)?;
+        } else if NF == NX {
             // Same column-major layout: copy straight through.
             for (d, s) in self.m.as_mut_slice().iter_mut().zip(j.as_slice()) {
                 *d = *s;
@@ -73,6 +83,10 @@ impl<S: Scalar, const NX: usize, const NF: usize> LinearSolver<S, NX, NF> {
         if !self.valid {
             x.fill(S::from_real(f64::NAN));
             return x;
+        }
+        if NF == NX && lane_lu::pays(NX) {
+            let b = SVector::<S, NX>::from_column_slice(b.as_slice());
+            return self.lanes.solve(&b);
         }
         if NF == NX {
             for (d, s) in x.as_mut_slice().iter_mut().zip(b.as_slice()) {

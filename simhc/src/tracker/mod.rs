@@ -72,6 +72,7 @@
 //! ```
 
 mod corrector;
+mod lane_lu;
 mod linalg;
 mod options;
 mod predictor;

@@ -88,42 +88,12 @@ pub mod grps {
             v
         }
     }
-    /// `grps7`: 8 equations in 8 unknowns with 84 parameters (7 rows).
-    #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-    pub struct Grps7;
-    impl Grps7 {
-        /// Number of unknowns.
-        pub const NX: usize = 8;
-        /// Number of equations.
-        pub const NF: usize = 8;
-        /// Number of parameters.
-        pub const NP: usize = 84;
-        /// Number of rows (correspondences).
-        pub const ROWS: usize = 7;
-        /// Number of coefficients of the coefficient form.
-        pub const NC: usize = 266;
-        /// Packs the parameter vector: rows in order, then globals.
-        pub fn params(
-            rows: &[Row; 7],
-        ) -> ::simhc::__private::nalgebra::SVector<f64, 84> {
-            let mut p = ::simhc::__private::nalgebra::SVector::<f64, 84>::zeros();
-            for (r, row) in rows.iter().enumerate() {
-                let mut buf = [0.0; 12];
-                row.write_to(&mut buf);
-                for (k, v) in buf.iter().enumerate() {
-                    p[r * 12 + k] = *v;
-                }
-            }
-            p
-        }
-        /// The unknowns as a vector.
-        pub fn unknowns_vector(
-            u: &Unknowns,
-        ) -> ::simhc::__private::nalgebra::SVector<f64, 8> {
-            let mut buf = [0.0; 8];
-            u.write_to(&mut buf);
-            ::simhc::__private::nalgebra::SVector::<f64, 8>::from(buf)
-        }
+    /// Row kernels shared by the instances (see `simhc::lanes`).
+    #[doc(hidden)]
+    #[derive(Debug, Clone, Copy)]
+    pub struct __SimhcRowKernels;
+    #[allow(dead_code)]
+    impl __SimhcRowKernels {
         /// Row kernel: residuals of `LANES` rows, one per lane.
         #[inline(always)]
         #[allow(clippy::all, unused_variables)]
@@ -342,6 +312,26 @@ pub mod grps {
             let t212 = t122 - t211;
             let t213 = t212.scale(2.0);
             f[0] = t213;
+        }
+        /// [`Self::__row_residual`] with the best instruction set of this CPU.
+        #[inline]
+        fn __row_residual_run<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            r: &[S; 12],
+            f: &mut [S; 1],
+        ) {
+            struct Job<'a, S: ::simhc::lanes::Lanes> {
+                x: &'a [S; 8],
+                r: &'a [S; 12],
+                f: &'a mut [S; 1],
+            }
+            impl<'a, S: ::simhc::lanes::Lanes> ::simhc::lanes::Kernel for Job<'a, S> {
+                #[inline(always)]
+                fn run(self) {
+                    __SimhcRowKernels::__row_residual(self.x, self.r, self.f);
+                }
+            }
+            ::simhc::lanes::dispatch(Job { x, r, f });
         }
         /// Row kernel: residuals and Jacobian rows (row-major) of `LANES` rows.
         #[inline(always)]
@@ -694,6 +684,33 @@ pub mod grps {
             j[6] = t294;
             j[7] = t337;
         }
+        /// [`Self::__row_residual_jacobian`] with the best instruction set of this CPU.
+        #[inline]
+        fn __row_residual_jacobian_run<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            r: &[S; 12],
+            f: &mut [S; 1],
+            j: &mut [S; 8],
+        ) {
+            struct Job<'a, S: ::simhc::lanes::Lanes> {
+                x: &'a [S; 8],
+                r: &'a [S; 12],
+                f: &'a mut [S; 1],
+                j: &'a mut [S; 8],
+            }
+            impl<'a, S: ::simhc::lanes::Lanes> ::simhc::lanes::Kernel for Job<'a, S> {
+                #[inline(always)]
+                fn run(self) {
+                    __SimhcRowKernels::__row_residual_jacobian(
+                        self.x,
+                        self.r,
+                        self.f,
+                        self.j,
+                    );
+                }
+            }
+            ::simhc::lanes::dispatch(Job { x, r, f, j });
+        }
         /// Row kernel of the coefficient form: residuals and Jacobian rows of `LANES` rows.
         #[inline(always)]
         #[allow(clippy::all, unused_variables)]
@@ -1010,6 +1027,33 @@ pub mod grps {
             j[6] = t268;
             j[7] = t301;
         }
+        /// [`Self::__row_coeff_residual_jacobian`] with the best instruction set of this CPU.
+        #[inline]
+        fn __row_coeff_residual_jacobian_run<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            r: &[S; 38],
+            f: &mut [S; 1],
+            j: &mut [S; 8],
+        ) {
+            struct Job<'a, S: ::simhc::lanes::Lanes> {
+                x: &'a [S; 8],
+                r: &'a [S; 38],
+                f: &'a mut [S; 1],
+                j: &'a mut [S; 8],
+            }
+            impl<'a, S: ::simhc::lanes::Lanes> ::simhc::lanes::Kernel for Job<'a, S> {
+                #[inline(always)]
+                fn run(self) {
+                    __SimhcRowKernels::__row_coeff_residual_jacobian(
+                        self.x,
+                        self.r,
+                        self.f,
+                        self.j,
+                    );
+                }
+            }
+            ::simhc::lanes::dispatch(Job { x, r, f, j });
+        }
         /// Row kernel of the coefficient form: residuals.
         #[inline(always)]
         #[allow(clippy::all, unused_variables)]
@@ -1164,6 +1208,26 @@ pub mod grps {
             let t147 = t72 - t146;
             let t148 = t147.scale(2.0);
             f[0] = t148;
+        }
+        /// [`Self::__row_coeff_residual`] with the best instruction set of this CPU.
+        #[inline]
+        fn __row_coeff_residual_run<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            r: &[S; 38],
+            f: &mut [S; 1],
+        ) {
+            struct Job<'a, S: ::simhc::lanes::Lanes> {
+                x: &'a [S; 8],
+                r: &'a [S; 38],
+                f: &'a mut [S; 1],
+            }
+            impl<'a, S: ::simhc::lanes::Lanes> ::simhc::lanes::Kernel for Job<'a, S> {
+                #[inline(always)]
+                fn run(self) {
+                    __SimhcRowKernels::__row_coeff_residual(self.x, self.r, self.f);
+                }
+            }
+            ::simhc::lanes::dispatch(Job { x, r, f });
         }
         /// Row kernel of the coefficient form: the part linear in the coefficients.
         #[inline(always)]
@@ -1320,6 +1384,63 @@ pub mod grps {
             let t148 = t147.scale(2.0);
             f[0] = t148;
         }
+        /// [`Self::__row_coeff_linear`] with the best instruction set of this CPU.
+        #[inline]
+        fn __row_coeff_linear_run<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            r: &[S; 38],
+            f: &mut [S; 1],
+        ) {
+            struct Job<'a, S: ::simhc::lanes::Lanes> {
+                x: &'a [S; 8],
+                r: &'a [S; 38],
+                f: &'a mut [S; 1],
+            }
+            impl<'a, S: ::simhc::lanes::Lanes> ::simhc::lanes::Kernel for Job<'a, S> {
+                #[inline(always)]
+                fn run(self) {
+                    __SimhcRowKernels::__row_coeff_linear(self.x, self.r, self.f);
+                }
+            }
+            ::simhc::lanes::dispatch(Job { x, r, f });
+        }
+    }
+    /// `grps7`: 8 equations in 8 unknowns with 84 parameters (7 rows).
+    #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+    pub struct Grps7;
+    impl Grps7 {
+        /// Number of unknowns.
+        pub const NX: usize = 8;
+        /// Number of equations.
+        pub const NF: usize = 8;
+        /// Number of parameters.
+        pub const NP: usize = 84;
+        /// Number of rows (correspondences).
+        pub const ROWS: usize = 7;
+        /// Number of coefficients of the coefficient form.
+        pub const NC: usize = 266;
+        /// Packs the parameter vector: rows in order, then globals.
+        pub fn params(
+            rows: &[Row; 7],
+        ) -> ::simhc::__private::nalgebra::SVector<f64, 84> {
+            let mut p = ::simhc::__private::nalgebra::SVector::<f64, 84>::zeros();
+            for (r, row) in rows.iter().enumerate() {
+                let mut buf = [0.0; 12];
+                row.write_to(&mut buf);
+                for (k, v) in buf.iter().enumerate() {
+                    p[r * 12 + k] = *v;
+                }
+            }
+            p
+        }
+        /// The unknowns as a vector.
+        pub fn unknowns_vector(
+            u: &Unknowns,
+        ) -> ::simhc::__private::nalgebra::SVector<f64, 8> {
+            let mut buf = [0.0; 8];
+            u.write_to(&mut buf);
+            ::simhc::__private::nalgebra::SVector::<f64, 8>::from(buf)
+        }
     }
     impl ::simhc::ProblemInfo for Grps7 {
         const NAME: &'static str = "grps7";
@@ -1428,52 +1549,40 @@ pub mod grps {
             p: &::simhc::__private::nalgebra::SVector<S, 84>,
             f: &mut ::simhc::__private::nalgebra::SVector<S, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                p: &'a ::simhc::__private::nalgebra::SVector<S, 84>,
-                f: &'a mut ::simhc::__private::nalgebra::SVector<S, 8>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k8: S = S::from_real(1.0);
+                let t1 = x_q_0 * x_q_0;
+                let t3 = x_q_1 * x_q_1;
+                let t5 = x_q_2 * x_q_2;
+                let t7 = x_q_3 * x_q_3;
+                let t9 = -t1;
+                let t10 = t9 - t3;
+                let t11 = t10 - t5;
+                let t12 = t11 - t7;
+                let t13 = k8 + t12;
+                let t15 = -t13;
+                f[7] = t15;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, p, f } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k8: S = S::from_real(1.0);
-                        let t1 = x_q_0 * x_q_0;
-                        let t3 = x_q_1 * x_q_1;
-                        let t5 = x_q_2 * x_q_2;
-                        let t7 = x_q_3 * x_q_3;
-                        let t9 = -t1;
-                        let t10 = t9 - t3;
-                        let t11 = t10 - t5;
-                        let t12 = t11 - t7;
-                        let t13 = k8 + t12;
-                        let t15 = -t13;
-                        f[7] = t15;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 7 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
-                            p,
-                            first,
-                            7,
-                            12,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        Grps7::__row_residual(&xl, &rl, &mut fl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 7, f);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 7 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
+                    p,
+                    first,
+                    7,
+                    12,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                __SimhcRowKernels::__row_residual_run(&xl, &rl, &mut fl);
+                ::simhc::lanes::scatter_residual(&fl, first, 7, f);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, p, f });
         }
         #[inline]
         fn jacobian<S: ::simhc::Scalar>(
@@ -1481,53 +1590,46 @@ pub mod grps {
             p: &::simhc::__private::nalgebra::SVector<S, 84>,
             j: &mut ::simhc::__private::nalgebra::SMatrix<S, 8, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                p: &'a ::simhc::__private::nalgebra::SVector<S, 84>,
-                j: &'a mut ::simhc::__private::nalgebra::SMatrix<S, 8, 8>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k10: S = S::from_real(0.0);
+                let t3 = x_q_0.scale(2.0);
+                let t5 = x_q_1.scale(2.0);
+                let t7 = x_q_2.scale(2.0);
+                let t9 = x_q_3.scale(2.0);
+                j.fill(S::from_real(0.0));
+                j[(7, 0)] = t3;
+                j[(7, 1)] = t5;
+                j[(7, 2)] = t7;
+                j[(7, 3)] = t9;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, p, j } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k10: S = S::from_real(0.0);
-                        let t3 = x_q_0.scale(2.0);
-                        let t5 = x_q_1.scale(2.0);
-                        let t7 = x_q_2.scale(2.0);
-                        let t9 = x_q_3.scale(2.0);
-                        j.fill(S::from_real(0.0));
-                        j[(7, 0)] = t3;
-                        j[(7, 1)] = t5;
-                        j[(7, 2)] = t7;
-                        j[(7, 3)] = t9;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 7 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
-                            p,
-                            first,
-                            7,
-                            12,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 8];
-                        Grps7::__row_residual_jacobian(&xl, &rl, &mut fl, &mut jl);
-                        ::simhc::lanes::scatter_jacobian(&jl, first, 7, j);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 7 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
+                    p,
+                    first,
+                    7,
+                    12,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 8];
+                __SimhcRowKernels::__row_residual_jacobian_run(
+                    &xl,
+                    &rl,
+                    &mut fl,
+                    &mut jl,
+                );
+                ::simhc::lanes::scatter_jacobian(&jl, first, 7, j);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, p, j });
         }
         #[inline]
         fn residual_jacobian<S: ::simhc::Scalar>(
@@ -1536,67 +1638,59 @@ pub mod grps {
             f: &mut ::simhc::__private::nalgebra::SVector<S, 8>,
             j: &mut ::simhc::__private::nalgebra::SMatrix<S, 8, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                p: &'a ::simhc::__private::nalgebra::SVector<S, 84>,
-                f: &'a mut ::simhc::__private::nalgebra::SVector<S, 8>,
-                j: &'a mut ::simhc::__private::nalgebra::SMatrix<S, 8, 8>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k8: S = S::from_real(1.0);
+                let k21: S = S::from_real(0.0);
+                let t1 = x_q_0 * x_q_0;
+                let t3 = x_q_1 * x_q_1;
+                let t5 = x_q_2 * x_q_2;
+                let t7 = x_q_3 * x_q_3;
+                let t9 = -t1;
+                let t10 = t9 - t3;
+                let t11 = t10 - t5;
+                let t12 = t11 - t7;
+                let t13 = k8 + t12;
+                let t15 = -t13;
+                let t17 = x_q_0.scale(2.0);
+                let t18 = x_q_1.scale(2.0);
+                let t19 = x_q_2.scale(2.0);
+                let t20 = x_q_3.scale(2.0);
+                f[7] = t15;
+                j.fill(S::from_real(0.0));
+                j[(7, 0)] = t17;
+                j[(7, 1)] = t18;
+                j[(7, 2)] = t19;
+                j[(7, 3)] = t20;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, p, f, j } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k8: S = S::from_real(1.0);
-                        let k21: S = S::from_real(0.0);
-                        let t1 = x_q_0 * x_q_0;
-                        let t3 = x_q_1 * x_q_1;
-                        let t5 = x_q_2 * x_q_2;
-                        let t7 = x_q_3 * x_q_3;
-                        let t9 = -t1;
-                        let t10 = t9 - t3;
-                        let t11 = t10 - t5;
-                        let t12 = t11 - t7;
-                        let t13 = k8 + t12;
-                        let t15 = -t13;
-                        let t17 = x_q_0.scale(2.0);
-                        let t18 = x_q_1.scale(2.0);
-                        let t19 = x_q_2.scale(2.0);
-                        let t20 = x_q_3.scale(2.0);
-                        f[7] = t15;
-                        j.fill(S::from_real(0.0));
-                        j[(7, 0)] = t17;
-                        j[(7, 1)] = t18;
-                        j[(7, 2)] = t19;
-                        j[(7, 3)] = t20;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 7 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
-                            p,
-                            first,
-                            7,
-                            12,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 8];
-                        Grps7::__row_residual_jacobian(&xl, &rl, &mut fl, &mut jl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 7, f);
-                        ::simhc::lanes::scatter_jacobian(&jl, first, 7, j);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 7 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
+                    p,
+                    first,
+                    7,
+                    12,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 8];
+                __SimhcRowKernels::__row_residual_jacobian_run(
+                    &xl,
+                    &rl,
+                    &mut fl,
+                    &mut jl,
+                );
+                ::simhc::lanes::scatter_residual(&fl, first, 7, f);
+                ::simhc::lanes::scatter_jacobian(&jl, first, 7, j);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, p, f, j });
         }
     }
     #[allow(clippy::all, unused_variables)]
@@ -9309,67 +9403,59 @@ pub mod grps {
             f: &mut ::simhc::__private::nalgebra::SVector<S, 8>,
             j: &mut ::simhc::__private::nalgebra::SMatrix<S, 8, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                c: &'a ::simhc::__private::nalgebra::SVector<S, 266>,
-                f: &'a mut ::simhc::__private::nalgebra::SVector<S, 8>,
-                j: &'a mut ::simhc::__private::nalgebra::SMatrix<S, 8, 8>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k8: S = S::from_real(1.0);
+                let k21: S = S::from_real(0.0);
+                let t1 = x_q_0 * x_q_0;
+                let t3 = x_q_1 * x_q_1;
+                let t5 = x_q_2 * x_q_2;
+                let t7 = x_q_3 * x_q_3;
+                let t9 = -t1;
+                let t10 = t9 - t3;
+                let t11 = t10 - t5;
+                let t12 = t11 - t7;
+                let t13 = k8 + t12;
+                let t15 = -t13;
+                let t17 = x_q_0.scale(2.0);
+                let t18 = x_q_1.scale(2.0);
+                let t19 = x_q_2.scale(2.0);
+                let t20 = x_q_3.scale(2.0);
+                f[7] = t15;
+                j.fill(S::from_real(0.0));
+                j[(7, 0)] = t17;
+                j[(7, 1)] = t18;
+                j[(7, 2)] = t19;
+                j[(7, 3)] = t20;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, c, f, j } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k8: S = S::from_real(1.0);
-                        let k21: S = S::from_real(0.0);
-                        let t1 = x_q_0 * x_q_0;
-                        let t3 = x_q_1 * x_q_1;
-                        let t5 = x_q_2 * x_q_2;
-                        let t7 = x_q_3 * x_q_3;
-                        let t9 = -t1;
-                        let t10 = t9 - t3;
-                        let t11 = t10 - t5;
-                        let t12 = t11 - t7;
-                        let t13 = k8 + t12;
-                        let t15 = -t13;
-                        let t17 = x_q_0.scale(2.0);
-                        let t18 = x_q_1.scale(2.0);
-                        let t19 = x_q_2.scale(2.0);
-                        let t20 = x_q_3.scale(2.0);
-                        f[7] = t15;
-                        j.fill(S::from_real(0.0));
-                        j[(7, 0)] = t17;
-                        j[(7, 1)] = t18;
-                        j[(7, 2)] = t19;
-                        j[(7, 3)] = t20;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 7 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
-                            c,
-                            first,
-                            7,
-                            38,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 8];
-                        Grps7::__row_coeff_residual_jacobian(&xl, &rl, &mut fl, &mut jl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 7, f);
-                        ::simhc::lanes::scatter_jacobian(&jl, first, 7, j);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 7 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
+                    c,
+                    first,
+                    7,
+                    38,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 8];
+                __SimhcRowKernels::__row_coeff_residual_jacobian_run(
+                    &xl,
+                    &rl,
+                    &mut fl,
+                    &mut jl,
+                );
+                ::simhc::lanes::scatter_residual(&fl, first, 7, f);
+                ::simhc::lanes::scatter_jacobian(&jl, first, 7, j);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, c, f, j });
         }
         #[inline]
         fn residual_coeffs<S: ::simhc::Scalar>(
@@ -9377,52 +9463,40 @@ pub mod grps {
             c: &::simhc::__private::nalgebra::SVector<S, 266>,
             f: &mut ::simhc::__private::nalgebra::SVector<S, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                c: &'a ::simhc::__private::nalgebra::SVector<S, 266>,
-                f: &'a mut ::simhc::__private::nalgebra::SVector<S, 8>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k8: S = S::from_real(1.0);
+                let t1 = x_q_0 * x_q_0;
+                let t3 = x_q_1 * x_q_1;
+                let t5 = x_q_2 * x_q_2;
+                let t7 = x_q_3 * x_q_3;
+                let t9 = -t1;
+                let t10 = t9 - t3;
+                let t11 = t10 - t5;
+                let t12 = t11 - t7;
+                let t13 = k8 + t12;
+                let t15 = -t13;
+                f[7] = t15;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, c, f } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k8: S = S::from_real(1.0);
-                        let t1 = x_q_0 * x_q_0;
-                        let t3 = x_q_1 * x_q_1;
-                        let t5 = x_q_2 * x_q_2;
-                        let t7 = x_q_3 * x_q_3;
-                        let t9 = -t1;
-                        let t10 = t9 - t3;
-                        let t11 = t10 - t5;
-                        let t12 = t11 - t7;
-                        let t13 = k8 + t12;
-                        let t15 = -t13;
-                        f[7] = t15;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 7 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
-                            c,
-                            first,
-                            7,
-                            38,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        Grps7::__row_coeff_residual(&xl, &rl, &mut fl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 7, f);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 7 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
+                    c,
+                    first,
+                    7,
+                    38,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                __SimhcRowKernels::__row_coeff_residual_run(&xl, &rl, &mut fl);
+                ::simhc::lanes::scatter_residual(&fl, first, 7, f);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, c, f });
         }
         #[inline]
         fn coefficient_part<S: ::simhc::Scalar>(
@@ -9430,39 +9504,27 @@ pub mod grps {
             dc: &::simhc::__private::nalgebra::SVector<S, 266>,
             out: &mut ::simhc::__private::nalgebra::SVector<S, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                dc: &'a ::simhc::__private::nalgebra::SVector<S, 266>,
-                out: &'a mut ::simhc::__private::nalgebra::SVector<S, 8>,
+            {
+                let c = dc;
+                let k0: S = S::from_real(0.0);
+                out.fill(S::from_real(0.0));
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, dc, out } = self;
-                    {
-                        let c = dc;
-                        let k0: S = S::from_real(0.0);
-                        out.fill(S::from_real(0.0));
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 7 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
-                            dc,
-                            first,
-                            7,
-                            38,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        Grps7::__row_coeff_linear(&xl, &rl, &mut fl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 7, out);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 7 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
+                    dc,
+                    first,
+                    7,
+                    38,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                __SimhcRowKernels::__row_coeff_linear_run(&xl, &rl, &mut fl);
+                ::simhc::lanes::scatter_residual(&fl, first, 7, out);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, dc, out });
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             7,
@@ -9507,7 +9569,7 @@ pub mod grps {
                         let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
                             0.0,
                         ); 1];
-                        Grps7::__row_coeff_linear(&xl, &rl, &mut fl);
+                        __SimhcRowKernels::__row_coeff_linear_run(&xl, &rl, &mut fl);
                         ::simhc::lanes::scatter_residual(
                             &fl,
                             chunk * ::simhc::lanes::LANES,
@@ -9555,1202 +9617,6 @@ pub mod grps {
             let mut buf = [0.0; 8];
             u.write_to(&mut buf);
             ::simhc::__private::nalgebra::SVector::<f64, 8>::from(buf)
-        }
-        /// Row kernel: residuals of `LANES` rows, one per lane.
-        #[inline(always)]
-        #[allow(clippy::all, unused_variables)]
-        fn __row_residual<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            r: &[S; 12],
-            f: &mut [S; 1],
-        ) {
-            let x_q_0 = x[0];
-            let x_s = x[7];
-            let p_row0_f_0 = r[0];
-            let p_row0_vp_2 = r[11];
-            let p_row0_fp_1 = r[7];
-            let p_row0_vp_1 = r[10];
-            let p_row0_fp_2 = r[8];
-            let p_row0_f_1 = r[1];
-            let p_row0_fp_0 = r[6];
-            let p_row0_vp_0 = r[9];
-            let p_row0_f_2 = r[2];
-            let x_t_2 = x[6];
-            let p_row0_v_2 = r[5];
-            let x_t_1 = x[5];
-            let p_row0_v_1 = r[4];
-            let x_t_0 = x[4];
-            let p_row0_v_0 = r[3];
-            let x_q_1 = x[1];
-            let x_q_2 = x[2];
-            let x_q_3 = x[3];
-            let t5 = p_row0_vp_2 * p_row0_fp_1;
-            let t8 = p_row0_vp_1 * p_row0_fp_2;
-            let t10 = t5 - t8;
-            let t11 = p_row0_f_0 * t10;
-            let t14 = p_row0_vp_2 * p_row0_fp_0;
-            let t16 = p_row0_fp_2 * p_row0_vp_0;
-            let t17 = t14 - t16;
-            let t18 = p_row0_f_1 * t17;
-            let t20 = p_row0_vp_1 * p_row0_fp_0;
-            let t21 = p_row0_fp_1 * p_row0_vp_0;
-            let t22 = t20 - t21;
-            let t23 = p_row0_f_2 * t22;
-            let t24 = t18 - t23;
-            let t25 = t11 - t24;
-            let t26 = x_s * t25;
-            let t29 = x_t_2 - p_row0_v_2;
-            let t31 = -t29;
-            let t32 = p_row0_fp_1 * t31;
-            let t35 = x_t_1 - p_row0_v_1;
-            let t36 = p_row0_fp_2 * t35;
-            let t37 = t32 + t36;
-            let t38 = -t37;
-            let t39 = p_row0_f_0 * t38;
-            let t40 = p_row0_fp_0 * t31;
-            let t43 = x_t_0 - p_row0_v_0;
-            let t44 = p_row0_fp_2 * t43;
-            let t45 = t40 + t44;
-            let t46 = p_row0_f_1 * t45;
-            let t47 = -t35;
-            let t48 = p_row0_fp_0 * t47;
-            let t49 = p_row0_fp_1 * t43;
-            let t50 = t48 + t49;
-            let t51 = p_row0_f_2 * t50;
-            let t52 = t46 - t51;
-            let t53 = t39 + t52;
-            let t54 = t26 + t53;
-            let t55 = x_q_0 * t54;
-            let t57 = x_s * p_row0_vp_0;
-            let t58 = x_t_0 + t57;
-            let t59 = t58 - p_row0_v_0;
-            let t60 = p_row0_f_1 * t59;
-            let t61 = p_row0_f_0 * t35;
-            let t62 = t60 - t61;
-            let t63 = p_row0_fp_1 * t62;
-            let t64 = p_row0_f_2 * t59;
-            let t65 = p_row0_f_0 * t29;
-            let t66 = t64 - t65;
-            let t67 = p_row0_fp_2 * t66;
-            let t68 = p_row0_vp_1 * p_row0_f_1;
-            let t69 = p_row0_vp_2 * p_row0_f_2;
-            let t70 = t68 + t69;
-            let t71 = p_row0_fp_0 * t70;
-            let t72 = x_s * t71;
-            let t73 = t67 - t72;
-            let t74 = t63 + t73;
-            let t75 = x_q_1 * t74;
-            let t77 = x_s * p_row0_vp_1;
-            let t78 = x_t_1 + t77;
-            let t79 = t78 - p_row0_v_1;
-            let t80 = -t79;
-            let t81 = p_row0_f_0 * t80;
-            let t82 = p_row0_f_1 * t43;
-            let t83 = t81 + t82;
-            let t84 = p_row0_fp_0 * t83;
-            let t85 = p_row0_f_2 * t79;
-            let t86 = p_row0_f_1 * t29;
-            let t87 = t85 - t86;
-            let t88 = p_row0_fp_2 * t87;
-            let t89 = p_row0_f_0 * p_row0_vp_0;
-            let t90 = t69 + t89;
-            let t91 = p_row0_fp_1 * t90;
-            let t92 = x_s * t91;
-            let t93 = t88 - t92;
-            let t94 = t84 - t93;
-            let t95 = x_q_2 * t94;
-            let t97 = x_s * p_row0_vp_2;
-            let t98 = x_t_2 + t97;
-            let t99 = t98 - p_row0_v_2;
-            let t100 = -t99;
-            let t101 = p_row0_f_0 * t100;
-            let t102 = p_row0_f_2 * t43;
-            let t103 = t101 + t102;
-            let t104 = p_row0_fp_0 * t103;
-            let t105 = p_row0_f_1 * t100;
-            let t106 = p_row0_f_2 * t35;
-            let t107 = t105 + t106;
-            let t108 = p_row0_fp_1 * t107;
-            let t109 = t68 + t89;
-            let t110 = p_row0_fp_2 * t109;
-            let t111 = x_s * t110;
-            let t112 = t108 + t111;
-            let t113 = t104 + t112;
-            let t114 = x_q_3 * t113;
-            let t115 = t95 + t114;
-            let t116 = t75 - t115;
-            let t118 = t116.scale(2.0);
-            let t119 = t55 + t118;
-            let t121 = t119.scale(0.5);
-            let t122 = x_q_0 * t121;
-            let t123 = t11 + t24;
-            let t124 = -t123;
-            let t125 = x_s * t124;
-            let t126 = p_row0_fp_0 * t29;
-            let t127 = t44 + t126;
-            let t128 = p_row0_f_1 * t127;
-            let t129 = p_row0_fp_0 * t35;
-            let t130 = t49 + t129;
-            let t131 = p_row0_f_2 * t130;
-            let t132 = t128 - t131;
-            let t133 = t39 + t132;
-            let t134 = t125 + t133;
-            let t135 = x_q_1 * t134;
-            let t136 = x_t_2 - t97;
-            let t137 = t136 - p_row0_v_2;
-            let t138 = -t137;
-            let t139 = p_row0_f_0 * t138;
-            let t140 = t102 + t139;
-            let t141 = p_row0_fp_0 * t140;
-            let t142 = p_row0_f_1 * t138;
-            let t143 = t106 + t142;
-            let t144 = p_row0_fp_1 * t143;
-            let t145 = t89 - t68;
-            let t146 = p_row0_fp_2 * t145;
-            let t147 = x_s * t146;
-            let t148 = t144 + t147;
-            let t149 = t141 - t148;
-            let t150 = x_q_2 * t149;
-            let t151 = x_t_1 - t77;
-            let t152 = t151 - p_row0_v_1;
-            let t153 = -t152;
-            let t154 = p_row0_f_0 * t153;
-            let t155 = t82 + t154;
-            let t156 = p_row0_fp_0 * t155;
-            let t157 = p_row0_f_2 * t152;
-            let t158 = t157 - t86;
-            let t159 = p_row0_fp_2 * t158;
-            let t160 = t89 - t69;
-            let t161 = p_row0_fp_1 * t160;
-            let t162 = x_s * t161;
-            let t163 = t159 - t162;
-            let t164 = t156 + t163;
-            let t165 = x_q_3 * t164;
-            let t166 = t150 - t165;
-            let t167 = t166.scale(2.0);
-            let t168 = t135 + t167;
-            let t169 = t168.scale(0.5);
-            let t170 = x_q_1 * t169;
-            let t171 = t18 + t23;
-            let t172 = t11 + t171;
-            let t173 = x_s * t172;
-            let t174 = p_row0_fp_1 * t29;
-            let t175 = t36 + t174;
-            let t176 = -t175;
-            let t177 = p_row0_f_0 * t176;
-            let t178 = t46 + t131;
-            let t179 = t177 + t178;
-            let t180 = t173 + t179;
-            let t181 = x_q_2 * t180;
-            let t182 = x_t_0 - t57;
-            let t183 = t182 - p_row0_v_0;
-            let t184 = p_row0_f_1 * t183;
-            let t185 = t184 - t61;
-            let t186 = p_row0_fp_1 * t185;
-            let t187 = p_row0_f_2 * t183;
-            let t188 = t187 - t65;
-            let t189 = p_row0_fp_2 * t188;
-            let t190 = t68 - t69;
-            let t191 = p_row0_fp_0 * t190;
-            let t192 = x_s * t191;
-            let t193 = t189 - t192;
-            let t194 = t186 - t193;
-            let t195 = x_q_3 * t194;
-            let t196 = t195.scale(2.0);
-            let t197 = t181 - t196;
-            let t199 = t197.scale(-0.5);
-            let t200 = x_q_2 * t199;
-            let t201 = t11 - t171;
-            let t202 = -t201;
-            let t203 = x_s * t202;
-            let t204 = t51 + t128;
-            let t205 = t177 + t204;
-            let t206 = t203 + t205;
-            let t207 = x_q_3 * t206;
-            let t208 = x_q_3 * t207;
-            let t209 = t208.scale(0.5);
-            let t210 = t200 + t209;
-            let t211 = t170 - t210;
-            let t212 = t122 - t211;
-            let t213 = t212.scale(2.0);
-            f[0] = t213;
-        }
-        /// Row kernel: residuals and Jacobian rows (row-major) of `LANES` rows.
-        #[inline(always)]
-        #[allow(clippy::all, unused_variables)]
-        fn __row_residual_jacobian<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            r: &[S; 12],
-            f: &mut [S; 1],
-            j: &mut [S; 8],
-        ) {
-            let x_q_0 = x[0];
-            let x_s = x[7];
-            let p_row0_f_0 = r[0];
-            let p_row0_vp_2 = r[11];
-            let p_row0_fp_1 = r[7];
-            let p_row0_vp_1 = r[10];
-            let p_row0_fp_2 = r[8];
-            let p_row0_f_1 = r[1];
-            let p_row0_fp_0 = r[6];
-            let p_row0_vp_0 = r[9];
-            let p_row0_f_2 = r[2];
-            let x_t_2 = x[6];
-            let p_row0_v_2 = r[5];
-            let x_t_1 = x[5];
-            let p_row0_v_1 = r[4];
-            let x_t_0 = x[4];
-            let p_row0_v_0 = r[3];
-            let x_q_1 = x[1];
-            let x_q_2 = x[2];
-            let x_q_3 = x[3];
-            let t5 = p_row0_vp_2 * p_row0_fp_1;
-            let t8 = p_row0_vp_1 * p_row0_fp_2;
-            let t10 = t5 - t8;
-            let t11 = p_row0_f_0 * t10;
-            let t14 = p_row0_vp_2 * p_row0_fp_0;
-            let t16 = p_row0_fp_2 * p_row0_vp_0;
-            let t17 = t14 - t16;
-            let t18 = p_row0_f_1 * t17;
-            let t20 = p_row0_vp_1 * p_row0_fp_0;
-            let t21 = p_row0_fp_1 * p_row0_vp_0;
-            let t22 = t20 - t21;
-            let t23 = p_row0_f_2 * t22;
-            let t24 = t18 - t23;
-            let t25 = t11 - t24;
-            let t26 = x_s * t25;
-            let t29 = x_t_2 - p_row0_v_2;
-            let t31 = -t29;
-            let t32 = p_row0_fp_1 * t31;
-            let t35 = x_t_1 - p_row0_v_1;
-            let t36 = p_row0_fp_2 * t35;
-            let t37 = t32 + t36;
-            let t38 = -t37;
-            let t39 = p_row0_f_0 * t38;
-            let t40 = p_row0_fp_0 * t31;
-            let t43 = x_t_0 - p_row0_v_0;
-            let t44 = p_row0_fp_2 * t43;
-            let t45 = t40 + t44;
-            let t46 = p_row0_f_1 * t45;
-            let t47 = -t35;
-            let t48 = p_row0_fp_0 * t47;
-            let t49 = p_row0_fp_1 * t43;
-            let t50 = t48 + t49;
-            let t51 = p_row0_f_2 * t50;
-            let t52 = t46 - t51;
-            let t53 = t39 + t52;
-            let t54 = t26 + t53;
-            let t55 = x_q_0 * t54;
-            let t57 = x_s * p_row0_vp_0;
-            let t58 = x_t_0 + t57;
-            let t59 = t58 - p_row0_v_0;
-            let t60 = p_row0_f_1 * t59;
-            let t61 = p_row0_f_0 * t35;
-            let t62 = t60 - t61;
-            let t63 = p_row0_fp_1 * t62;
-            let t64 = p_row0_f_2 * t59;
-            let t65 = p_row0_f_0 * t29;
-            let t66 = t64 - t65;
-            let t67 = p_row0_fp_2 * t66;
-            let t68 = p_row0_vp_1 * p_row0_f_1;
-            let t69 = p_row0_vp_2 * p_row0_f_2;
-            let t70 = t68 + t69;
-            let t71 = p_row0_fp_0 * t70;
-            let t72 = x_s * t71;
-            let t73 = t67 - t72;
-            let t74 = t63 + t73;
-            let t75 = x_q_1 * t74;
-            let t77 = x_s * p_row0_vp_1;
-            let t78 = x_t_1 + t77;
-            let t79 = t78 - p_row0_v_1;
-            let t80 = -t79;
-            let t81 = p_row0_f_0 * t80;
-            let t82 = p_row0_f_1 * t43;
-            let t83 = t81 + t82;
-            let t84 = p_row0_fp_0 * t83;
-            let t85 = p_row0_f_2 * t79;
-            let t86 = p_row0_f_1 * t29;
-            let t87 = t85 - t86;
-            let t88 = p_row0_fp_2 * t87;
-            let t89 = p_row0_f_0 * p_row0_vp_0;
-            let t90 = t69 + t89;
-            let t91 = p_row0_fp_1 * t90;
-            let t92 = x_s * t91;
-            let t93 = t88 - t92;
-            let t94 = t84 - t93;
-            let t95 = x_q_2 * t94;
-            let t97 = x_s * p_row0_vp_2;
-            let t98 = x_t_2 + t97;
-            let t99 = t98 - p_row0_v_2;
-            let t100 = -t99;
-            let t101 = p_row0_f_0 * t100;
-            let t102 = p_row0_f_2 * t43;
-            let t103 = t101 + t102;
-            let t104 = p_row0_fp_0 * t103;
-            let t105 = p_row0_f_1 * t100;
-            let t106 = p_row0_f_2 * t35;
-            let t107 = t105 + t106;
-            let t108 = p_row0_fp_1 * t107;
-            let t109 = t68 + t89;
-            let t110 = p_row0_fp_2 * t109;
-            let t111 = x_s * t110;
-            let t112 = t108 + t111;
-            let t113 = t104 + t112;
-            let t114 = x_q_3 * t113;
-            let t115 = t95 + t114;
-            let t116 = t75 - t115;
-            let t118 = t116.scale(2.0);
-            let t119 = t55 + t118;
-            let t121 = t119.scale(0.5);
-            let t122 = x_q_0 * t121;
-            let t123 = t11 + t24;
-            let t124 = -t123;
-            let t125 = x_s * t124;
-            let t126 = p_row0_fp_0 * t29;
-            let t127 = t44 + t126;
-            let t128 = p_row0_f_1 * t127;
-            let t129 = p_row0_fp_0 * t35;
-            let t130 = t49 + t129;
-            let t131 = p_row0_f_2 * t130;
-            let t132 = t128 - t131;
-            let t133 = t39 + t132;
-            let t134 = t125 + t133;
-            let t135 = x_q_1 * t134;
-            let t136 = x_t_2 - t97;
-            let t137 = t136 - p_row0_v_2;
-            let t138 = -t137;
-            let t139 = p_row0_f_0 * t138;
-            let t140 = t102 + t139;
-            let t141 = p_row0_fp_0 * t140;
-            let t142 = p_row0_f_1 * t138;
-            let t143 = t106 + t142;
-            let t144 = p_row0_fp_1 * t143;
-            let t145 = t89 - t68;
-            let t146 = p_row0_fp_2 * t145;
-            let t147 = x_s * t146;
-            let t148 = t144 + t147;
-            let t149 = t141 - t148;
-            let t150 = x_q_2 * t149;
-            let t151 = x_t_1 - t77;
-            let t152 = t151 - p_row0_v_1;
-            let t153 = -t152;
-            let t154 = p_row0_f_0 * t153;
-            let t155 = t82 + t154;
-            let t156 = p_row0_fp_0 * t155;
-            let t157 = p_row0_f_2 * t152;
-            let t158 = t157 - t86;
-            let t159 = p_row0_fp_2 * t158;
-            let t160 = t89 - t69;
-            let t161 = p_row0_fp_1 * t160;
-            let t162 = x_s * t161;
-            let t163 = t159 - t162;
-            let t164 = t156 + t163;
-            let t165 = x_q_3 * t164;
-            let t166 = t150 - t165;
-            let t167 = t166.scale(2.0);
-            let t168 = t135 + t167;
-            let t169 = t168.scale(0.5);
-            let t170 = x_q_1 * t169;
-            let t171 = t18 + t23;
-            let t172 = t11 + t171;
-            let t173 = x_s * t172;
-            let t174 = p_row0_fp_1 * t29;
-            let t175 = t36 + t174;
-            let t176 = -t175;
-            let t177 = p_row0_f_0 * t176;
-            let t178 = t46 + t131;
-            let t179 = t177 + t178;
-            let t180 = t173 + t179;
-            let t181 = x_q_2 * t180;
-            let t182 = x_t_0 - t57;
-            let t183 = t182 - p_row0_v_0;
-            let t184 = p_row0_f_1 * t183;
-            let t185 = t184 - t61;
-            let t186 = p_row0_fp_1 * t185;
-            let t187 = p_row0_f_2 * t183;
-            let t188 = t187 - t65;
-            let t189 = p_row0_fp_2 * t188;
-            let t190 = t68 - t69;
-            let t191 = p_row0_fp_0 * t190;
-            let t192 = x_s * t191;
-            let t193 = t189 - t192;
-            let t194 = t186 - t193;
-            let t195 = x_q_3 * t194;
-            let t196 = t195.scale(2.0);
-            let t197 = t181 - t196;
-            let t199 = t197.scale(-0.5);
-            let t200 = x_q_2 * t199;
-            let t201 = t11 - t171;
-            let t202 = -t201;
-            let t203 = x_s * t202;
-            let t204 = t51 + t128;
-            let t205 = t177 + t204;
-            let t206 = t203 + t205;
-            let t207 = x_q_3 * t206;
-            let t208 = x_q_3 * t207;
-            let t209 = t208.scale(0.5);
-            let t210 = t200 + t209;
-            let t211 = t170 - t210;
-            let t212 = t122 - t211;
-            let t213 = t212.scale(2.0);
-            let t214 = t55 + t116;
-            let t215 = t214.scale(2.0);
-            let t216 = -t134;
-            let t217 = x_q_1 * t216;
-            let t218 = x_q_0 * t74;
-            let t219 = t218 - t166;
-            let t220 = t217 + t219;
-            let t221 = t220.scale(2.0);
-            let t222 = x_q_0 * t94;
-            let t223 = x_q_1 * t149;
-            let t224 = t223 - t195;
-            let t225 = t222 + t224;
-            let t226 = t181 + t225;
-            let t228 = t226.scale(-2.0);
-            let t229 = -t206;
-            let t230 = x_q_3 * t229;
-            let t231 = x_q_0 * t113;
-            let t232 = x_q_1 * t164;
-            let t233 = x_q_2 * t194;
-            let t234 = t232 + t233;
-            let t235 = t231 - t234;
-            let t236 = t230 + t235;
-            let t237 = t236.scale(-2.0);
-            let t238 = x_q_0 * x_q_0;
-            let t239 = x_q_1 * x_q_1;
-            let t240 = x_q_2 * x_q_2;
-            let t241 = x_q_3 * x_q_3;
-            let t242 = t238 - t239;
-            let t243 = t242 - t240;
-            let t244 = t241 + t243;
-            let t245 = t244.scale(0.5);
-            let t246 = p_row0_fp_2 * t245;
-            let t247 = p_row0_fp_1 * x_q_1;
-            let t248 = p_row0_fp_0 * x_q_2;
-            let t249 = t247 - t248;
-            let t250 = x_q_0 * t249;
-            let t251 = p_row0_fp_0 * x_q_1;
-            let t252 = p_row0_fp_1 * x_q_2;
-            let t253 = t251 + t252;
-            let t254 = x_q_3 * t253;
-            let t255 = t250 + t254;
-            let t256 = t246 + t255;
-            let t257 = p_row0_f_1 * t256;
-            let t258 = t240 + t242;
-            let t259 = t258 - t241;
-            let t260 = t259.scale(-0.5);
-            let t261 = p_row0_fp_1 * t260;
-            let t262 = p_row0_fp_2 * x_q_1;
-            let t263 = p_row0_fp_0 * x_q_3;
-            let t264 = t262 - t263;
-            let t265 = x_q_0 * t264;
-            let t266 = p_row0_fp_2 * x_q_3;
-            let t267 = t251 + t266;
-            let t268 = x_q_2 * t267;
-            let t269 = t265 - t268;
-            let t270 = t261 + t269;
-            let t271 = p_row0_f_2 * t270;
-            let t272 = t257 + t271;
-            let t273 = t272.scale(2.0);
-            let t274 = p_row0_f_0 * t256;
-            let t275 = t238 + t239;
-            let t276 = t275 - t240;
-            let t277 = t276 - t241;
-            let t278 = t277.scale(0.5);
-            let t279 = p_row0_fp_0 * t278;
-            let t280 = p_row0_fp_2 * x_q_2;
-            let t281 = p_row0_fp_1 * x_q_3;
-            let t282 = t280 - t281;
-            let t283 = x_q_0 * t282;
-            let t284 = t252 + t266;
-            let t285 = x_q_1 * t284;
-            let t286 = t283 + t285;
-            let t287 = t279 + t286;
-            let t288 = p_row0_f_2 * t287;
-            let t289 = t274 - t288;
-            let t290 = t289.scale(-2.0);
-            let t291 = p_row0_f_0 * t270;
-            let t292 = p_row0_f_1 * t287;
-            let t293 = t291 + t292;
-            let t294 = t293.scale(-2.0);
-            let t295 = x_q_0 * t25;
-            let t296 = p_row0_f_1 * t22;
-            let t297 = t17 * p_row0_f_2;
-            let t298 = t296 + t297;
-            let t299 = x_q_1 * t298;
-            let t300 = p_row0_f_0 * t22;
-            let t301 = t10 * p_row0_f_2;
-            let t302 = t300 - t301;
-            let t303 = x_q_2 * t302;
-            let t304 = p_row0_f_0 * t17;
-            let t305 = t10 * p_row0_f_1;
-            let t306 = t304 + t305;
-            let t307 = x_q_3 * t306;
-            let t308 = t303 + t307;
-            let t309 = t299 - t308;
-            let t310 = t309.scale(2.0);
-            let t311 = t295 - t310;
-            let t312 = t311.scale(-0.5);
-            let t313 = x_q_0 * t312;
-            let t314 = x_q_1 * t123;
-            let t315 = t304 - t305;
-            let t316 = x_q_2 * t315;
-            let t317 = t300 + t301;
-            let t318 = x_q_3 * t317;
-            let t319 = t316 - t318;
-            let t320 = t319.scale(2.0);
-            let t321 = t314 - t320;
-            let t322 = t321.scale(-0.5);
-            let t323 = x_q_1 * t322;
-            let t324 = x_q_2 * t172;
-            let t325 = t296 - t297;
-            let t326 = x_q_3 * t325;
-            let t327 = t326.scale(2.0);
-            let t328 = t324 - t327;
-            let t329 = t328.scale(-0.5);
-            let t330 = x_q_2 * t329;
-            let t331 = x_q_3 * t201;
-            let t332 = x_q_3 * t331;
-            let t333 = t332.scale(0.5);
-            let t334 = t330 - t333;
-            let t335 = t323 - t334;
-            let t336 = t313 + t335;
-            let t337 = t336.scale(-2.0);
-            f[0] = t213;
-            j[0] = t215;
-            j[1] = t221;
-            j[2] = t228;
-            j[3] = t237;
-            j[4] = t273;
-            j[5] = t290;
-            j[6] = t294;
-            j[7] = t337;
-        }
-        /// Row kernel of the coefficient form: residuals and Jacobian rows of `LANES` rows.
-        #[inline(always)]
-        #[allow(clippy::all, unused_variables)]
-        fn __row_coeff_residual_jacobian<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            r: &[S; 38],
-            f: &mut [S; 1],
-            j: &mut [S; 8],
-        ) {
-            let x_q_0 = x[0];
-            let cf_16 = r[16];
-            let x_t_0 = x[4];
-            let cf_17 = r[17];
-            let x_t_1 = x[5];
-            let cf_18 = r[18];
-            let x_t_2 = x[6];
-            let cf_19 = r[19];
-            let x_s = x[7];
-            let cf_15 = r[15];
-            let x_q_1 = x[1];
-            let cf_1 = r[1];
-            let cf_2 = r[2];
-            let cf_3 = r[3];
-            let cf_4 = r[4];
-            let cf_0 = r[0];
-            let x_q_2 = x[2];
-            let cf_6 = r[6];
-            let cf_7 = r[7];
-            let cf_8 = r[8];
-            let cf_9 = r[9];
-            let cf_5 = r[5];
-            let x_q_3 = x[3];
-            let cf_11 = r[11];
-            let cf_12 = r[12];
-            let cf_13 = r[13];
-            let cf_14 = r[14];
-            let cf_10 = r[10];
-            let cf_27 = r[27];
-            let cf_28 = r[28];
-            let cf_29 = r[29];
-            let cf_26 = r[26];
-            let cf_21 = r[21];
-            let cf_22 = r[22];
-            let cf_20 = r[20];
-            let cf_24 = r[24];
-            let cf_25 = r[25];
-            let cf_23 = r[23];
-            let cf_34 = r[34];
-            let cf_35 = r[35];
-            let cf_33 = r[33];
-            let cf_31 = r[31];
-            let cf_32 = r[32];
-            let cf_30 = r[30];
-            let cf_37 = r[37];
-            let cf_36 = r[36];
-            let t3 = cf_16 * x_t_0;
-            let t6 = cf_17 * x_t_1;
-            let t9 = cf_18 * x_t_2;
-            let t12 = cf_19 * x_s;
-            let t15 = t3 - t6;
-            let t16 = t9 + t15;
-            let t17 = t12 + t16;
-            let t18 = cf_15 + t17;
-            let t19 = x_q_0 * t18;
-            let t22 = x_t_0 * cf_1;
-            let t24 = x_t_1 * cf_2;
-            let t26 = x_t_2 * cf_3;
-            let t28 = x_s * cf_4;
-            let t30 = t22 - t24;
-            let t31 = t30 - t26;
-            let t32 = t31 - t28;
-            let t33 = cf_0 + t32;
-            let t34 = x_q_1 * t33;
-            let t37 = x_t_0 * cf_6;
-            let t39 = x_t_1 * cf_7;
-            let t41 = x_t_2 * cf_8;
-            let t43 = x_s * cf_9;
-            let t45 = t37 - t39;
-            let t46 = t41 + t45;
-            let t47 = t46 - t43;
-            let t48 = cf_5 + t47;
-            let t49 = x_q_2 * t48;
-            let t52 = x_t_0 * cf_11;
-            let t54 = x_t_1 * cf_12;
-            let t56 = x_t_2 * cf_13;
-            let t58 = x_s * cf_14;
-            let t60 = t52 + t54;
-            let t61 = t60 - t56;
-            let t62 = t61 - t58;
-            let t63 = cf_10 + t62;
-            let t64 = x_q_3 * t63;
-            let t65 = t49 + t64;
-            let t66 = t34 - t65;
-            let t68 = t66.scale(2.0);
-            let t69 = t19 + t68;
-            let t71 = t69.scale(0.5);
-            let t72 = x_q_0 * t71;
-            let t74 = x_t_1 * cf_27;
-            let t76 = x_t_2 * cf_28;
-            let t78 = x_s * cf_29;
-            let t80 = t3 - t74;
-            let t81 = t76 + t80;
-            let t82 = t81 - t78;
-            let t83 = cf_26 + t82;
-            let t84 = x_q_1 * t83;
-            let t86 = x_t_2 * cf_21;
-            let t88 = x_s * cf_22;
-            let t90 = t52 - t54;
-            let t91 = t90 - t86;
-            let t92 = t88 + t91;
-            let t93 = cf_20 + t92;
-            let t94 = x_q_2 * t93;
-            let t96 = x_t_1 * cf_24;
-            let t98 = x_s * cf_25;
-            let t100 = t37 - t96;
-            let t101 = t100 - t41;
-            let t102 = t98 + t101;
-            let t103 = cf_23 + t102;
-            let t104 = x_q_3 * t103;
-            let t105 = t94 - t104;
-            let t106 = t105.scale(2.0);
-            let t107 = t84 + t106;
-            let t108 = t107.scale(0.5);
-            let t109 = x_q_1 * t108;
-            let t111 = x_t_0 * cf_34;
-            let t113 = x_s * cf_35;
-            let t115 = t111 - t6;
-            let t116 = t115 - t76;
-            let t117 = t113 + t116;
-            let t118 = cf_33 + t117;
-            let t119 = x_q_2 * t118;
-            let t121 = x_t_0 * cf_31;
-            let t123 = x_s * cf_32;
-            let t125 = t121 - t24;
-            let t126 = t26 + t125;
-            let t127 = t123 + t126;
-            let t128 = cf_30 + t127;
-            let t129 = x_q_3 * t128;
-            let t130 = t129.scale(2.0);
-            let t131 = t119 - t130;
-            let t133 = t131.scale(-0.5);
-            let t134 = x_q_2 * t133;
-            let t136 = x_s * cf_37;
-            let t138 = t111 - t74;
-            let t139 = t138 - t9;
-            let t140 = t139 - t136;
-            let t141 = cf_36 + t140;
-            let t142 = x_q_3 * t141;
-            let t143 = x_q_3 * t142;
-            let t144 = t143.scale(0.5);
-            let t145 = t134 + t144;
-            let t146 = t109 - t145;
-            let t147 = t72 - t146;
-            let t148 = t147.scale(2.0);
-            let t149 = t19 + t66;
-            let t150 = t149.scale(2.0);
-            let t151 = x_q_0 * t33;
-            let t152 = t84 + t105;
-            let t153 = t151 - t152;
-            let t154 = t153.scale(2.0);
-            let t155 = x_q_0 * t48;
-            let t156 = x_q_1 * t93;
-            let t157 = t119 - t129;
-            let t158 = t156 + t157;
-            let t159 = t155 + t158;
-            let t161 = t159.scale(-2.0);
-            let t162 = x_q_0 * t63;
-            let t163 = x_q_1 * t103;
-            let t164 = x_q_2 * t128;
-            let t165 = t142 + t164;
-            let t166 = t163 + t165;
-            let t167 = t162 - t166;
-            let t168 = t167.scale(-2.0);
-            let t169 = x_q_0 * cf_16;
-            let t170 = x_q_1 * cf_1;
-            let t171 = x_q_2 * cf_6;
-            let t172 = x_q_3 * cf_11;
-            let t173 = t170.scale(2.0);
-            let t174 = t169 + t173;
-            let t175 = t171.scale(2.0);
-            let t176 = t174 - t175;
-            let t177 = t172.scale(2.0);
-            let t178 = t176 - t177;
-            let t179 = t178.scale(0.5);
-            let t180 = x_q_0 * t179;
-            let t181 = cf_16 * x_q_1;
-            let t182 = x_q_2 * cf_11;
-            let t183 = cf_6 * x_q_3;
-            let t184 = t182.scale(2.0);
-            let t185 = t181 + t184;
-            let t186 = t183.scale(2.0);
-            let t187 = t185 - t186;
-            let t188 = t187.scale(0.5);
-            let t189 = x_q_1 * t188;
-            let t190 = x_q_2 * cf_34;
-            let t191 = x_q_3 * cf_31;
-            let t192 = t191.scale(2.0);
-            let t193 = t190 - t192;
-            let t194 = t193.scale(-0.5);
-            let t195 = x_q_2 * t194;
-            let t196 = x_q_3 * x_q_3;
-            let t197 = cf_34 * t196;
-            let t198 = t197.scale(0.5);
-            let t199 = t195 + t198;
-            let t200 = t189 - t199;
-            let t201 = t180 - t200;
-            let t202 = t201.scale(2.0);
-            let t203 = x_q_0 * cf_17;
-            let t204 = x_q_1 * cf_2;
-            let t205 = x_q_2 * cf_7;
-            let t206 = x_q_3 * cf_12;
-            let t207 = t204.scale(2.0);
-            let t208 = t203 + t207;
-            let t209 = t205.scale(2.0);
-            let t210 = t208 - t209;
-            let t211 = t206.scale(2.0);
-            let t212 = t210 + t211;
-            let t213 = t212.scale(0.5);
-            let t214 = x_q_0 * t213;
-            let t215 = x_q_1 * cf_27;
-            let t216 = x_q_2 * cf_12;
-            let t217 = x_q_3 * cf_24;
-            let t218 = t216.scale(2.0);
-            let t219 = t215 + t218;
-            let t220 = t217.scale(2.0);
-            let t221 = t219 - t220;
-            let t222 = t221.scale(0.5);
-            let t223 = x_q_1 * t222;
-            let t224 = cf_17 * x_q_2;
-            let t225 = cf_2 * x_q_3;
-            let t226 = t225.scale(2.0);
-            let t227 = t224 - t226;
-            let t228 = t227.scale(-0.5);
-            let t229 = x_q_2 * t228;
-            let t230 = cf_27 * t196;
-            let t231 = t230.scale(0.5);
-            let t232 = t229 + t231;
-            let t233 = t223 - t232;
-            let t234 = t214 - t233;
-            let t235 = t234.scale(-2.0);
-            let t236 = x_q_0 * cf_18;
-            let t237 = x_q_1 * cf_3;
-            let t238 = x_q_2 * cf_8;
-            let t239 = x_q_3 * cf_13;
-            let t240 = t237.scale(2.0);
-            let t241 = t236 - t240;
-            let t242 = t238.scale(2.0);
-            let t243 = t241 - t242;
-            let t244 = t239.scale(2.0);
-            let t245 = t243 + t244;
-            let t246 = t245.scale(-0.5);
-            let t247 = x_q_0 * t246;
-            let t248 = x_q_1 * cf_28;
-            let t249 = x_q_2 * cf_21;
-            let t250 = cf_8 * x_q_3;
-            let t251 = t249.scale(2.0);
-            let t252 = t248 - t251;
-            let t253 = t250.scale(2.0);
-            let t254 = t252 + t253;
-            let t255 = t254.scale(-0.5);
-            let t256 = x_q_1 * t255;
-            let t257 = x_q_2 * cf_28;
-            let t258 = cf_3 * x_q_3;
-            let t259 = t258.scale(2.0);
-            let t260 = t257 + t259;
-            let t261 = t260.scale(0.5);
-            let t262 = x_q_2 * t261;
-            let t263 = cf_18 * t196;
-            let t264 = t263.scale(0.5);
-            let t265 = t262 - t264;
-            let t266 = t256 + t265;
-            let t267 = t247 - t266;
-            let t268 = t267.scale(-2.0);
-            let t269 = x_q_0 * cf_19;
-            let t270 = x_q_1 * cf_4;
-            let t271 = x_q_2 * cf_9;
-            let t272 = x_q_3 * cf_14;
-            let t273 = t270.scale(2.0);
-            let t274 = t269 - t273;
-            let t275 = t271.scale(2.0);
-            let t276 = t274 + t275;
-            let t277 = t272.scale(2.0);
-            let t278 = t276 + t277;
-            let t279 = t278.scale(-0.5);
-            let t280 = x_q_0 * t279;
-            let t281 = x_q_1 * cf_29;
-            let t282 = x_q_2 * cf_22;
-            let t283 = x_q_3 * cf_25;
-            let t284 = t282.scale(2.0);
-            let t285 = t281 - t284;
-            let t286 = t283.scale(2.0);
-            let t287 = t285 + t286;
-            let t288 = t287.scale(-0.5);
-            let t289 = x_q_1 * t288;
-            let t290 = x_q_2 * cf_35;
-            let t291 = x_q_3 * cf_32;
-            let t292 = t291.scale(2.0);
-            let t293 = t290 - t292;
-            let t294 = t293.scale(-0.5);
-            let t295 = x_q_2 * t294;
-            let t296 = cf_37 * t196;
-            let t297 = t296.scale(0.5);
-            let t298 = t295 - t297;
-            let t299 = t289 - t298;
-            let t300 = t280 + t299;
-            let t301 = t300.scale(-2.0);
-            f[0] = t148;
-            j[0] = t150;
-            j[1] = t154;
-            j[2] = t161;
-            j[3] = t168;
-            j[4] = t202;
-            j[5] = t235;
-            j[6] = t268;
-            j[7] = t301;
-        }
-        /// Row kernel of the coefficient form: residuals.
-        #[inline(always)]
-        #[allow(clippy::all, unused_variables)]
-        fn __row_coeff_residual<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            r: &[S; 38],
-            f: &mut [S; 1],
-        ) {
-            let x_q_0 = x[0];
-            let cf_16 = r[16];
-            let x_t_0 = x[4];
-            let cf_17 = r[17];
-            let x_t_1 = x[5];
-            let cf_18 = r[18];
-            let x_t_2 = x[6];
-            let cf_19 = r[19];
-            let x_s = x[7];
-            let cf_15 = r[15];
-            let x_q_1 = x[1];
-            let cf_1 = r[1];
-            let cf_2 = r[2];
-            let cf_3 = r[3];
-            let cf_4 = r[4];
-            let cf_0 = r[0];
-            let x_q_2 = x[2];
-            let cf_6 = r[6];
-            let cf_7 = r[7];
-            let cf_8 = r[8];
-            let cf_9 = r[9];
-            let cf_5 = r[5];
-            let x_q_3 = x[3];
-            let cf_11 = r[11];
-            let cf_12 = r[12];
-            let cf_13 = r[13];
-            let cf_14 = r[14];
-            let cf_10 = r[10];
-            let cf_27 = r[27];
-            let cf_28 = r[28];
-            let cf_29 = r[29];
-            let cf_26 = r[26];
-            let cf_21 = r[21];
-            let cf_22 = r[22];
-            let cf_20 = r[20];
-            let cf_24 = r[24];
-            let cf_25 = r[25];
-            let cf_23 = r[23];
-            let cf_34 = r[34];
-            let cf_35 = r[35];
-            let cf_33 = r[33];
-            let cf_31 = r[31];
-            let cf_32 = r[32];
-            let cf_30 = r[30];
-            let cf_37 = r[37];
-            let cf_36 = r[36];
-            let t3 = cf_16 * x_t_0;
-            let t6 = cf_17 * x_t_1;
-            let t9 = cf_18 * x_t_2;
-            let t12 = cf_19 * x_s;
-            let t15 = t3 - t6;
-            let t16 = t9 + t15;
-            let t17 = t12 + t16;
-            let t18 = cf_15 + t17;
-            let t19 = x_q_0 * t18;
-            let t22 = x_t_0 * cf_1;
-            let t24 = x_t_1 * cf_2;
-            let t26 = x_t_2 * cf_3;
-            let t28 = x_s * cf_4;
-            let t30 = t22 - t24;
-            let t31 = t30 - t26;
-            let t32 = t31 - t28;
-            let t33 = cf_0 + t32;
-            let t34 = x_q_1 * t33;
-            let t37 = x_t_0 * cf_6;
-            let t39 = x_t_1 * cf_7;
-            let t41 = x_t_2 * cf_8;
-            let t43 = x_s * cf_9;
-            let t45 = t37 - t39;
-            let t46 = t41 + t45;
-            let t47 = t46 - t43;
-            let t48 = cf_5 + t47;
-            let t49 = x_q_2 * t48;
-            let t52 = x_t_0 * cf_11;
-            let t54 = x_t_1 * cf_12;
-            let t56 = x_t_2 * cf_13;
-            let t58 = x_s * cf_14;
-            let t60 = t52 + t54;
-            let t61 = t60 - t56;
-            let t62 = t61 - t58;
-            let t63 = cf_10 + t62;
-            let t64 = x_q_3 * t63;
-            let t65 = t49 + t64;
-            let t66 = t34 - t65;
-            let t68 = t66.scale(2.0);
-            let t69 = t19 + t68;
-            let t71 = t69.scale(0.5);
-            let t72 = x_q_0 * t71;
-            let t74 = x_t_1 * cf_27;
-            let t76 = x_t_2 * cf_28;
-            let t78 = x_s * cf_29;
-            let t80 = t3 - t74;
-            let t81 = t76 + t80;
-            let t82 = t81 - t78;
-            let t83 = cf_26 + t82;
-            let t84 = x_q_1 * t83;
-            let t86 = x_t_2 * cf_21;
-            let t88 = x_s * cf_22;
-            let t90 = t52 - t54;
-            let t91 = t90 - t86;
-            let t92 = t88 + t91;
-            let t93 = cf_20 + t92;
-            let t94 = x_q_2 * t93;
-            let t96 = x_t_1 * cf_24;
-            let t98 = x_s * cf_25;
-            let t100 = t37 - t96;
-            let t101 = t100 - t41;
-            let t102 = t98 + t101;
-            let t103 = cf_23 + t102;
-            let t104 = x_q_3 * t103;
-            let t105 = t94 - t104;
-            let t106 = t105.scale(2.0);
-            let t107 = t84 + t106;
-            let t108 = t107.scale(0.5);
-            let t109 = x_q_1 * t108;
-            let t111 = x_t_0 * cf_34;
-            let t113 = x_s * cf_35;
-            let t115 = t111 - t6;
-            let t116 = t115 - t76;
-            let t117 = t113 + t116;
-            let t118 = cf_33 + t117;
-            let t119 = x_q_2 * t118;
-            let t121 = x_t_0 * cf_31;
-            let t123 = x_s * cf_32;
-            let t125 = t121 - t24;
-            let t126 = t26 + t125;
-            let t127 = t123 + t126;
-            let t128 = cf_30 + t127;
-            let t129 = x_q_3 * t128;
-            let t130 = t129.scale(2.0);
-            let t131 = t119 - t130;
-            let t133 = t131.scale(-0.5);
-            let t134 = x_q_2 * t133;
-            let t136 = x_s * cf_37;
-            let t138 = t111 - t74;
-            let t139 = t138 - t9;
-            let t140 = t139 - t136;
-            let t141 = cf_36 + t140;
-            let t142 = x_q_3 * t141;
-            let t143 = x_q_3 * t142;
-            let t144 = t143.scale(0.5);
-            let t145 = t134 + t144;
-            let t146 = t109 - t145;
-            let t147 = t72 - t146;
-            let t148 = t147.scale(2.0);
-            f[0] = t148;
-        }
-        /// Row kernel of the coefficient form: the part linear in the coefficients.
-        #[inline(always)]
-        #[allow(clippy::all, unused_variables)]
-        fn __row_coeff_linear<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            r: &[S; 38],
-            f: &mut [S; 1],
-        ) {
-            let x_q_0 = x[0];
-            let cf_16 = r[16];
-            let x_t_0 = x[4];
-            let cf_17 = r[17];
-            let x_t_1 = x[5];
-            let cf_18 = r[18];
-            let x_t_2 = x[6];
-            let cf_19 = r[19];
-            let x_s = x[7];
-            let cf_15 = r[15];
-            let x_q_1 = x[1];
-            let cf_1 = r[1];
-            let cf_2 = r[2];
-            let cf_3 = r[3];
-            let cf_4 = r[4];
-            let cf_0 = r[0];
-            let x_q_2 = x[2];
-            let cf_6 = r[6];
-            let cf_7 = r[7];
-            let cf_8 = r[8];
-            let cf_9 = r[9];
-            let cf_5 = r[5];
-            let x_q_3 = x[3];
-            let cf_11 = r[11];
-            let cf_12 = r[12];
-            let cf_13 = r[13];
-            let cf_14 = r[14];
-            let cf_10 = r[10];
-            let cf_27 = r[27];
-            let cf_28 = r[28];
-            let cf_29 = r[29];
-            let cf_26 = r[26];
-            let cf_21 = r[21];
-            let cf_22 = r[22];
-            let cf_20 = r[20];
-            let cf_24 = r[24];
-            let cf_25 = r[25];
-            let cf_23 = r[23];
-            let cf_34 = r[34];
-            let cf_35 = r[35];
-            let cf_33 = r[33];
-            let cf_31 = r[31];
-            let cf_32 = r[32];
-            let cf_30 = r[30];
-            let cf_37 = r[37];
-            let cf_36 = r[36];
-            let t3 = cf_16 * x_t_0;
-            let t6 = cf_17 * x_t_1;
-            let t9 = cf_18 * x_t_2;
-            let t12 = cf_19 * x_s;
-            let t15 = t3 - t6;
-            let t16 = t9 + t15;
-            let t17 = t12 + t16;
-            let t18 = cf_15 + t17;
-            let t19 = x_q_0 * t18;
-            let t22 = x_t_0 * cf_1;
-            let t24 = x_t_1 * cf_2;
-            let t26 = x_t_2 * cf_3;
-            let t28 = x_s * cf_4;
-            let t30 = t22 - t24;
-            let t31 = t30 - t26;
-            let t32 = t31 - t28;
-            let t33 = cf_0 + t32;
-            let t34 = x_q_1 * t33;
-            let t37 = x_t_0 * cf_6;
-            let t39 = x_t_1 * cf_7;
-            let t41 = x_t_2 * cf_8;
-            let t43 = x_s * cf_9;
-            let t45 = t37 - t39;
-            let t46 = t41 + t45;
-            let t47 = t46 - t43;
-            let t48 = cf_5 + t47;
-            let t49 = x_q_2 * t48;
-            let t52 = x_t_0 * cf_11;
-            let t54 = x_t_1 * cf_12;
-            let t56 = x_t_2 * cf_13;
-            let t58 = x_s * cf_14;
-            let t60 = t52 + t54;
-            let t61 = t60 - t56;
-            let t62 = t61 - t58;
-            let t63 = cf_10 + t62;
-            let t64 = x_q_3 * t63;
-            let t65 = t49 + t64;
-            let t66 = t34 - t65;
-            let t68 = t66.scale(2.0);
-            let t69 = t19 + t68;
-            let t71 = t69.scale(0.5);
-            let t72 = x_q_0 * t71;
-            let t74 = x_t_1 * cf_27;
-            let t76 = x_t_2 * cf_28;
-            let t78 = x_s * cf_29;
-            let t80 = t3 - t74;
-            let t81 = t76 + t80;
-            let t82 = t81 - t78;
-            let t83 = cf_26 + t82;
-            let t84 = x_q_1 * t83;
-            let t86 = x_t_2 * cf_21;
-            let t88 = x_s * cf_22;
-            let t90 = t52 - t54;
-            let t91 = t90 - t86;
-            let t92 = t88 + t91;
-            let t93 = cf_20 + t92;
-            let t94 = x_q_2 * t93;
-            let t96 = x_t_1 * cf_24;
-            let t98 = x_s * cf_25;
-            let t100 = t37 - t96;
-            let t101 = t100 - t41;
-            let t102 = t98 + t101;
-            let t103 = cf_23 + t102;
-            let t104 = x_q_3 * t103;
-            let t105 = t94 - t104;
-            let t106 = t105.scale(2.0);
-            let t107 = t84 + t106;
-            let t108 = t107.scale(0.5);
-            let t109 = x_q_1 * t108;
-            let t111 = x_t_0 * cf_34;
-            let t113 = x_s * cf_35;
-            let t115 = t111 - t6;
-            let t116 = t115 - t76;
-            let t117 = t113 + t116;
-            let t118 = cf_33 + t117;
-            let t119 = x_q_2 * t118;
-            let t121 = x_t_0 * cf_31;
-            let t123 = x_s * cf_32;
-            let t125 = t121 - t24;
-            let t126 = t26 + t125;
-            let t127 = t123 + t126;
-            let t128 = cf_30 + t127;
-            let t129 = x_q_3 * t128;
-            let t130 = t129.scale(2.0);
-            let t131 = t119 - t130;
-            let t133 = t131.scale(-0.5);
-            let t134 = x_q_2 * t133;
-            let t136 = x_s * cf_37;
-            let t138 = t111 - t74;
-            let t139 = t138 - t9;
-            let t140 = t139 - t136;
-            let t141 = cf_36 + t140;
-            let t142 = x_q_3 * t141;
-            let t143 = x_q_3 * t142;
-            let t144 = t143.scale(0.5);
-            let t145 = t134 + t144;
-            let t146 = t109 - t145;
-            let t147 = t72 - t146;
-            let t148 = t147.scale(2.0);
-            f[0] = t148;
         }
     }
     impl ::simhc::ProblemInfo for Grps8 {
@@ -10872,52 +9738,40 @@ pub mod grps {
             p: &::simhc::__private::nalgebra::SVector<S, 96>,
             f: &mut ::simhc::__private::nalgebra::SVector<S, 9>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                p: &'a ::simhc::__private::nalgebra::SVector<S, 96>,
-                f: &'a mut ::simhc::__private::nalgebra::SVector<S, 9>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k8: S = S::from_real(1.0);
+                let t1 = x_q_0 * x_q_0;
+                let t3 = x_q_1 * x_q_1;
+                let t5 = x_q_2 * x_q_2;
+                let t7 = x_q_3 * x_q_3;
+                let t9 = -t1;
+                let t10 = t9 - t3;
+                let t11 = t10 - t5;
+                let t12 = t11 - t7;
+                let t13 = k8 + t12;
+                let t15 = -t13;
+                f[8] = t15;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, p, f } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k8: S = S::from_real(1.0);
-                        let t1 = x_q_0 * x_q_0;
-                        let t3 = x_q_1 * x_q_1;
-                        let t5 = x_q_2 * x_q_2;
-                        let t7 = x_q_3 * x_q_3;
-                        let t9 = -t1;
-                        let t10 = t9 - t3;
-                        let t11 = t10 - t5;
-                        let t12 = t11 - t7;
-                        let t13 = k8 + t12;
-                        let t15 = -t13;
-                        f[8] = t15;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 8 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
-                            p,
-                            first,
-                            8,
-                            12,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        Grps8::__row_residual(&xl, &rl, &mut fl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 8, f);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 8 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
+                    p,
+                    first,
+                    8,
+                    12,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                __SimhcRowKernels::__row_residual_run(&xl, &rl, &mut fl);
+                ::simhc::lanes::scatter_residual(&fl, first, 8, f);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, p, f });
         }
         #[inline]
         fn jacobian<S: ::simhc::Scalar>(
@@ -10925,53 +9779,46 @@ pub mod grps {
             p: &::simhc::__private::nalgebra::SVector<S, 96>,
             j: &mut ::simhc::__private::nalgebra::SMatrix<S, 9, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                p: &'a ::simhc::__private::nalgebra::SVector<S, 96>,
-                j: &'a mut ::simhc::__private::nalgebra::SMatrix<S, 9, 8>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k10: S = S::from_real(0.0);
+                let t3 = x_q_0.scale(2.0);
+                let t5 = x_q_1.scale(2.0);
+                let t7 = x_q_2.scale(2.0);
+                let t9 = x_q_3.scale(2.0);
+                j.fill(S::from_real(0.0));
+                j[(8, 0)] = t3;
+                j[(8, 1)] = t5;
+                j[(8, 2)] = t7;
+                j[(8, 3)] = t9;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, p, j } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k10: S = S::from_real(0.0);
-                        let t3 = x_q_0.scale(2.0);
-                        let t5 = x_q_1.scale(2.0);
-                        let t7 = x_q_2.scale(2.0);
-                        let t9 = x_q_3.scale(2.0);
-                        j.fill(S::from_real(0.0));
-                        j[(8, 0)] = t3;
-                        j[(8, 1)] = t5;
-                        j[(8, 2)] = t7;
-                        j[(8, 3)] = t9;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 8 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
-                            p,
-                            first,
-                            8,
-                            12,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 8];
-                        Grps8::__row_residual_jacobian(&xl, &rl, &mut fl, &mut jl);
-                        ::simhc::lanes::scatter_jacobian(&jl, first, 8, j);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 8 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
+                    p,
+                    first,
+                    8,
+                    12,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 8];
+                __SimhcRowKernels::__row_residual_jacobian_run(
+                    &xl,
+                    &rl,
+                    &mut fl,
+                    &mut jl,
+                );
+                ::simhc::lanes::scatter_jacobian(&jl, first, 8, j);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, p, j });
         }
         #[inline]
         fn residual_jacobian<S: ::simhc::Scalar>(
@@ -10980,67 +9827,59 @@ pub mod grps {
             f: &mut ::simhc::__private::nalgebra::SVector<S, 9>,
             j: &mut ::simhc::__private::nalgebra::SMatrix<S, 9, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                p: &'a ::simhc::__private::nalgebra::SVector<S, 96>,
-                f: &'a mut ::simhc::__private::nalgebra::SVector<S, 9>,
-                j: &'a mut ::simhc::__private::nalgebra::SMatrix<S, 9, 8>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k8: S = S::from_real(1.0);
+                let k21: S = S::from_real(0.0);
+                let t1 = x_q_0 * x_q_0;
+                let t3 = x_q_1 * x_q_1;
+                let t5 = x_q_2 * x_q_2;
+                let t7 = x_q_3 * x_q_3;
+                let t9 = -t1;
+                let t10 = t9 - t3;
+                let t11 = t10 - t5;
+                let t12 = t11 - t7;
+                let t13 = k8 + t12;
+                let t15 = -t13;
+                let t17 = x_q_0.scale(2.0);
+                let t18 = x_q_1.scale(2.0);
+                let t19 = x_q_2.scale(2.0);
+                let t20 = x_q_3.scale(2.0);
+                f[8] = t15;
+                j.fill(S::from_real(0.0));
+                j[(8, 0)] = t17;
+                j[(8, 1)] = t18;
+                j[(8, 2)] = t19;
+                j[(8, 3)] = t20;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, p, f, j } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k8: S = S::from_real(1.0);
-                        let k21: S = S::from_real(0.0);
-                        let t1 = x_q_0 * x_q_0;
-                        let t3 = x_q_1 * x_q_1;
-                        let t5 = x_q_2 * x_q_2;
-                        let t7 = x_q_3 * x_q_3;
-                        let t9 = -t1;
-                        let t10 = t9 - t3;
-                        let t11 = t10 - t5;
-                        let t12 = t11 - t7;
-                        let t13 = k8 + t12;
-                        let t15 = -t13;
-                        let t17 = x_q_0.scale(2.0);
-                        let t18 = x_q_1.scale(2.0);
-                        let t19 = x_q_2.scale(2.0);
-                        let t20 = x_q_3.scale(2.0);
-                        f[8] = t15;
-                        j.fill(S::from_real(0.0));
-                        j[(8, 0)] = t17;
-                        j[(8, 1)] = t18;
-                        j[(8, 2)] = t19;
-                        j[(8, 3)] = t20;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 8 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
-                            p,
-                            first,
-                            8,
-                            12,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 8];
-                        Grps8::__row_residual_jacobian(&xl, &rl, &mut fl, &mut jl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 8, f);
-                        ::simhc::lanes::scatter_jacobian(&jl, first, 8, j);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 8 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 12] = ::simhc::lanes::gather_rows(
+                    p,
+                    first,
+                    8,
+                    12,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 8];
+                __SimhcRowKernels::__row_residual_jacobian_run(
+                    &xl,
+                    &rl,
+                    &mut fl,
+                    &mut jl,
+                );
+                ::simhc::lanes::scatter_residual(&fl, first, 8, f);
+                ::simhc::lanes::scatter_jacobian(&jl, first, 8, j);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, p, f, j });
         }
     }
     #[allow(clippy::all, unused_variables)]
@@ -19839,67 +18678,59 @@ pub mod grps {
             f: &mut ::simhc::__private::nalgebra::SVector<S, 9>,
             j: &mut ::simhc::__private::nalgebra::SMatrix<S, 9, 8>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                c: &'a ::simhc::__private::nalgebra::SVector<S, 304>,
-                f: &'a mut ::simhc::__private::nalgebra::SVector<S, 9>,
-                j: &'a mut ::simhc::__private::nalgebra::SMatrix<S, 9, 8>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k8: S = S::from_real(1.0);
+                let k21: S = S::from_real(0.0);
+                let t1 = x_q_0 * x_q_0;
+                let t3 = x_q_1 * x_q_1;
+                let t5 = x_q_2 * x_q_2;
+                let t7 = x_q_3 * x_q_3;
+                let t9 = -t1;
+                let t10 = t9 - t3;
+                let t11 = t10 - t5;
+                let t12 = t11 - t7;
+                let t13 = k8 + t12;
+                let t15 = -t13;
+                let t17 = x_q_0.scale(2.0);
+                let t18 = x_q_1.scale(2.0);
+                let t19 = x_q_2.scale(2.0);
+                let t20 = x_q_3.scale(2.0);
+                f[8] = t15;
+                j.fill(S::from_real(0.0));
+                j[(8, 0)] = t17;
+                j[(8, 1)] = t18;
+                j[(8, 2)] = t19;
+                j[(8, 3)] = t20;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, c, f, j } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k8: S = S::from_real(1.0);
-                        let k21: S = S::from_real(0.0);
-                        let t1 = x_q_0 * x_q_0;
-                        let t3 = x_q_1 * x_q_1;
-                        let t5 = x_q_2 * x_q_2;
-                        let t7 = x_q_3 * x_q_3;
-                        let t9 = -t1;
-                        let t10 = t9 - t3;
-                        let t11 = t10 - t5;
-                        let t12 = t11 - t7;
-                        let t13 = k8 + t12;
-                        let t15 = -t13;
-                        let t17 = x_q_0.scale(2.0);
-                        let t18 = x_q_1.scale(2.0);
-                        let t19 = x_q_2.scale(2.0);
-                        let t20 = x_q_3.scale(2.0);
-                        f[8] = t15;
-                        j.fill(S::from_real(0.0));
-                        j[(8, 0)] = t17;
-                        j[(8, 1)] = t18;
-                        j[(8, 2)] = t19;
-                        j[(8, 3)] = t20;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 8 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
-                            c,
-                            first,
-                            8,
-                            38,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 8];
-                        Grps8::__row_coeff_residual_jacobian(&xl, &rl, &mut fl, &mut jl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 8, f);
-                        ::simhc::lanes::scatter_jacobian(&jl, first, 8, j);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 8 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
+                    c,
+                    first,
+                    8,
+                    38,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                let mut jl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 8];
+                __SimhcRowKernels::__row_coeff_residual_jacobian_run(
+                    &xl,
+                    &rl,
+                    &mut fl,
+                    &mut jl,
+                );
+                ::simhc::lanes::scatter_residual(&fl, first, 8, f);
+                ::simhc::lanes::scatter_jacobian(&jl, first, 8, j);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, c, f, j });
         }
         #[inline]
         fn residual_coeffs<S: ::simhc::Scalar>(
@@ -19907,52 +18738,40 @@ pub mod grps {
             c: &::simhc::__private::nalgebra::SVector<S, 304>,
             f: &mut ::simhc::__private::nalgebra::SVector<S, 9>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                c: &'a ::simhc::__private::nalgebra::SVector<S, 304>,
-                f: &'a mut ::simhc::__private::nalgebra::SVector<S, 9>,
+            {
+                let x_q_0 = x[0];
+                let x_q_1 = x[1];
+                let x_q_2 = x[2];
+                let x_q_3 = x[3];
+                let k8: S = S::from_real(1.0);
+                let t1 = x_q_0 * x_q_0;
+                let t3 = x_q_1 * x_q_1;
+                let t5 = x_q_2 * x_q_2;
+                let t7 = x_q_3 * x_q_3;
+                let t9 = -t1;
+                let t10 = t9 - t3;
+                let t11 = t10 - t5;
+                let t12 = t11 - t7;
+                let t13 = k8 + t12;
+                let t15 = -t13;
+                f[8] = t15;
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, c, f } = self;
-                    {
-                        let x_q_0 = x[0];
-                        let x_q_1 = x[1];
-                        let x_q_2 = x[2];
-                        let x_q_3 = x[3];
-                        let k8: S = S::from_real(1.0);
-                        let t1 = x_q_0 * x_q_0;
-                        let t3 = x_q_1 * x_q_1;
-                        let t5 = x_q_2 * x_q_2;
-                        let t7 = x_q_3 * x_q_3;
-                        let t9 = -t1;
-                        let t10 = t9 - t3;
-                        let t11 = t10 - t5;
-                        let t12 = t11 - t7;
-                        let t13 = k8 + t12;
-                        let t15 = -t13;
-                        f[8] = t15;
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 8 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
-                            c,
-                            first,
-                            8,
-                            38,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        Grps8::__row_coeff_residual(&xl, &rl, &mut fl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 8, f);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 8 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
+                    c,
+                    first,
+                    8,
+                    38,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                __SimhcRowKernels::__row_coeff_residual_run(&xl, &rl, &mut fl);
+                ::simhc::lanes::scatter_residual(&fl, first, 8, f);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, c, f });
         }
         #[inline]
         fn coefficient_part<S: ::simhc::Scalar>(
@@ -19960,39 +18779,27 @@ pub mod grps {
             dc: &::simhc::__private::nalgebra::SVector<S, 304>,
             out: &mut ::simhc::__private::nalgebra::SVector<S, 9>,
         ) {
-            struct Job<'a, S: ::simhc::Scalar> {
-                x: &'a ::simhc::__private::nalgebra::SVector<S, 8>,
-                dc: &'a ::simhc::__private::nalgebra::SVector<S, 304>,
-                out: &'a mut ::simhc::__private::nalgebra::SVector<S, 9>,
+            {
+                let c = dc;
+                let k0: S = S::from_real(0.0);
+                out.fill(S::from_real(0.0));
             }
-            impl<'a, S: ::simhc::Scalar> ::simhc::lanes::Kernel for Job<'a, S> {
-                #[inline(always)]
-                fn run(self) {
-                    let Job { x, dc, out } = self;
-                    {
-                        let c = dc;
-                        let k0: S = S::from_real(0.0);
-                        out.fill(S::from_real(0.0));
-                    }
-                    let xl = ::simhc::lanes::splat_all(x);
-                    let mut first = 0;
-                    while first < 8 {
-                        let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
-                            dc,
-                            first,
-                            8,
-                            38,
-                        );
-                        let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
-                            0.0,
-                        ); 1];
-                        Grps8::__row_coeff_linear(&xl, &rl, &mut fl);
-                        ::simhc::lanes::scatter_residual(&fl, first, 8, out);
-                        first += ::simhc::lanes::LANES;
-                    }
-                }
+            let xl = ::simhc::lanes::splat_all(x);
+            let mut first = 0;
+            while first < 8 {
+                let rl: [<S as ::simhc::Scalar>::Lanes; 38] = ::simhc::lanes::gather_rows(
+                    dc,
+                    first,
+                    8,
+                    38,
+                );
+                let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
+                    0.0,
+                ); 1];
+                __SimhcRowKernels::__row_coeff_linear_run(&xl, &rl, &mut fl);
+                ::simhc::lanes::scatter_residual(&fl, first, 8, out);
+                first += ::simhc::lanes::LANES;
             }
-            ::simhc::lanes::dispatch(Job { x, dc, out });
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             8,
@@ -20037,7 +18844,7 @@ pub mod grps {
                         let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
                             0.0,
                         ); 1];
-                        Grps8::__row_coeff_linear(&xl, &rl, &mut fl);
+                        __SimhcRowKernels::__row_coeff_linear_run(&xl, &rl, &mut fl);
                         ::simhc::lanes::scatter_residual(
                             &fl,
                             chunk * ::simhc::lanes::LANES,

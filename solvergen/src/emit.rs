@@ -361,11 +361,12 @@ fn row_loop(
     let (rows, row_len, k_t, epr, ej) = (n(shape.rows), n(row_len), n(k), n(shape.epr), n(shape.epr * shape.nx));
     let lanes = quote!(<S as ::simhc::Scalar>::Lanes);
     let zero = quote!(<#lanes as ::simhc::lanes::Lanes>::from_real(0.0));
-    let kernel = format_ident!("{}", kernel);
+    let kernel = format_ident!("{}_run", kernel);
+    let _ = type_name;
     let (decl_j, call) = if kernel_j {
-        (quote!(let mut jl = [#zero; #ej];), quote!(#type_name::#kernel(&xl, &rl, &mut fl, &mut jl);))
+        (quote!(let mut jl = [#zero; #ej];), quote!(__SimhcRowKernels::#kernel(&xl, &rl, &mut fl, &mut jl);))
     } else {
-        (quote!(), quote!(#type_name::#kernel(&xl, &rl, &mut fl);))
+        (quote!(), quote!(__SimhcRowKernels::#kernel(&xl, &rl, &mut fl);))
     };
     let store_f = f_out.map(|f| quote!(::simhc::lanes::scatter_residual(&fl, first, #rows, #f);));
     let store_j = j_out.map(|j| quote!(::simhc::lanes::scatter_jacobian(&jl, first, #rows, #j);));
@@ -384,18 +385,46 @@ fn row_loop(
     }
 }
 
-/// A row kernel item: `f` (and `j`, row-major) of one row per lane from the broadcast unknowns
-/// `x` and the row's inputs `r` (`k` entries).
+/// A row kernel: `f` (and `j`, row-major) of one row per lane from the broadcast unknowns `x`
+/// and the row's inputs `r` (`k` entries). Emitted as the body (`name`, always inlined) and
+/// `name_run`, which runs it through `simhc::lanes::dispatch` (AVX2 where available) via a
+/// small job struct: each kernel is compiled once per instruction set and scalar type, however
+/// many wrappers call it.
 fn kernel_item(name: &str, doc: &str, shape: RowShape, k: usize, with_j: bool, body: TokenStream) -> TokenStream {
+    let run = format_ident!("{}_run", name);
     let name = format_ident!("{}", name);
     let (nx, k, epr, ej) = (n(shape.nx), n(k), n(shape.epr), n(shape.epr * shape.nx));
-    let j = if with_j { quote!(, j: &mut [S; #ej]) } else { quote!() };
+    let (j_arg, j_field, j_name) = if with_j {
+        (quote!(, j: &mut [S; #ej]), quote!(j: &'a mut [S; #ej],), quote!(j))
+    } else {
+        (quote!(), quote!(), quote!())
+    };
+    let j_pass = if with_j { quote!(, #j_name) } else { quote!() };
+    let j_self = if with_j { quote!(, self.j) } else { quote!() };
+    let run_doc = format!(" [`Self::{name}`] with the best instruction set of this CPU.");
     quote! {
         #[doc = #doc]
         #[inline(always)]
         #[allow(clippy::all, unused_variables)]
-        fn #name<S: ::simhc::lanes::Lanes>(x: &[S; #nx], r: &[S; #k], f: &mut [S; #epr] #j) {
+        fn #name<S: ::simhc::lanes::Lanes>(x: &[S; #nx], r: &[S; #k], f: &mut [S; #epr] #j_arg) {
             #body
+        }
+        #[doc = #run_doc]
+        #[inline]
+        fn #run<S: ::simhc::lanes::Lanes>(x: &[S; #nx], r: &[S; #k], f: &mut [S; #epr] #j_arg) {
+            struct Job<'a, S: ::simhc::lanes::Lanes> {
+                x: &'a [S; #nx],
+                r: &'a [S; #k],
+                f: &'a mut [S; #epr],
+                #j_field
+            }
+            impl<'a, S: ::simhc::lanes::Lanes> ::simhc::lanes::Kernel for Job<'a, S> {
+                #[inline(always)]
+                fn run(self) {
+                    __SimhcRowKernels::#name(self.x, self.r, self.f #j_self);
+                }
+            }
+            ::simhc::lanes::dispatch(Job { x, r, f #j_pass });
         }
     }
 }
@@ -490,10 +519,9 @@ impl RowKernels {
         let residual_loop = lp("__row_residual", false, Some(quote!(f)), None);
         let jacobian_loop = lp("__row_residual_jacobian", true, None, Some(quote!(j)));
         let fused_loop = lp("__row_residual_jacobian", true, Some(quote!(f)), Some(quote!(j)));
-        let args = Args::new(shape, inst.vars.np(), "p");
-        let residual = dispatched(&[args.x(), args.src(), args.f()], quote!(#g_r #residual_loop));
-        let jacobian = dispatched(&[args.x(), args.src(), args.j()], quote!(#g_j #jacobian_loop));
-        let fused = dispatched(&[args.x(), args.src(), args.f(), args.j()], quote!(#g_f #fused_loop));
+        let residual = quote!(#g_r #residual_loop);
+        let jacobian = quote!(#g_j #jacobian_loop);
+        let fused = quote!(#g_f #fused_loop);
         let items = [
             kernel_item("__row_residual", " Row kernel: residuals of `LANES` rows, one per lane.", shape, npk, false, kernel_residual),
             kernel_item(
@@ -555,12 +583,8 @@ impl RowKernels {
             let lp = lp("__row_coeff_linear", quote!(dc), false, quote!(out), None);
             quote!(#gp #lp)
         };
-        let args = Args::new(shape, nc, "c");
-        let fused = dispatched(&[args.x(), args.src(), args.f(), args.j()], fused_body);
-        let residual = dispatched(&[args.x(), args.src(), args.f()], residual_body);
-        let dargs = Args::new(shape, nc, "dc");
-        let out = (quote!(out), dargs.f().1);
-        let linear = dispatched(&[dargs.x(), dargs.src(), out], linear_body);
+        let _ = nc;
+        let (fused, residual, linear) = (fused_body, residual_body, linear_body);
         let items = [
             kernel_item(
                 "__row_coeff_residual_jacobian",
@@ -610,7 +634,7 @@ impl RowKernels {
                         }
                     }
                     let mut fl = [#zero; #epr];
-                    #type_name::__row_coeff_linear(&xl, &rl, &mut fl);
+                    __SimhcRowKernels::__row_coeff_linear_run(&xl, &rl, &mut fl);
                     ::simhc::lanes::scatter_residual(&fl, chunk * ::simhc::lanes::LANES, #rows, out);
                 }
             };
@@ -647,36 +671,6 @@ fn global_linear(eqs: &[crate::poly::Poly], vars: &VarTable, shape: RowShape) ->
     let f: Vec<_> = (first..shape.nf).map(|g| (n(g).into_token_stream(), dag.polynomial(&eqs[g], vars))).collect();
     let body = render_with(&dag, vars, &[(quote!(out), &f)]);
     quote!({ let c = dc; #body })
-}
-
-/// Argument lists (name, type) of the wrappers run through [`dispatched`].
-struct Args {
-    nx: Literal,
-    nf: Literal,
-    nsrc: Literal,
-    src: Ident,
-}
-
-impl Args {
-    fn new(shape: RowShape, nsrc: usize, src: &str) -> Self {
-        Self { nx: n(shape.nx), nf: n(shape.nf), nsrc: n(nsrc), src: format_ident!("{}", src) }
-    }
-    fn x(&self) -> (TokenStream, TokenStream) {
-        let nx = &self.nx;
-        (quote!(x), quote!(&'a ::simhc::__private::nalgebra::SVector<S, #nx>))
-    }
-    fn src(&self) -> (TokenStream, TokenStream) {
-        let (src, nsrc) = (&self.src, &self.nsrc);
-        (quote!(#src), quote!(&'a ::simhc::__private::nalgebra::SVector<S, #nsrc>))
-    }
-    fn f(&self) -> (TokenStream, TokenStream) {
-        let nf = &self.nf;
-        (quote!(f), quote!(&'a mut ::simhc::__private::nalgebra::SVector<S, #nf>))
-    }
-    fn j(&self) -> (TokenStream, TokenStream) {
-        let (nf, nx) = (&self.nf, &self.nx);
-        (quote!(j), quote!(&'a mut ::simhc::__private::nalgebra::SMatrix<S, #nf, #nx>))
-    }
 }
 
 /// Kernel bodies read their row inputs from `r`: the renderer loads parameters from `p[..]` and
@@ -781,7 +775,35 @@ pub fn module(decl: &Declaration, instances: &[Instance]) -> TokenStream {
     } else {
         data_struct(&format_ident!("Globals"), " Parameters shared by all rows.", &decl.globals)
     };
-    let impls = instances.iter().map(|inst| instance(decl, inst));
+    // Row kernels depend on the declaration only: emitted once for all instances.
+    let mut kernels: Vec<TokenStream> = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    let impls: Vec<TokenStream> = instances
+        .iter()
+        .map(|inst| {
+            let (tokens, items) = instance(decl, inst);
+            for item in items {
+                if seen.insert(item.to_string()) {
+                    kernels.push(item);
+                }
+            }
+            tokens
+        })
+        .collect();
+    let kernels = if kernels.is_empty() {
+        quote!()
+    } else {
+        quote! {
+            /// Row kernels shared by the instances (see `simhc::lanes`).
+            #[doc(hidden)]
+            #[derive(Debug, Clone, Copy)]
+            pub struct __SimhcRowKernels;
+            #[allow(dead_code)]
+            impl __SimhcRowKernels {
+                #(#kernels)*
+            }
+        }
+    };
     quote! {
         #(#attrs)*
         #vis mod #ident {
@@ -789,12 +811,14 @@ pub fn module(decl: &Declaration, instances: &[Instance]) -> TokenStream {
             #unknowns
             #rows
             #globals
+            #kernels
             #(#impls)*
         }
     }
 }
 
-fn instance(decl: &Declaration, inst: &Instance) -> TokenStream {
+/// The items of one instance, and its row-kernel items (to be emitted once per module).
+fn instance(decl: &Declaration, inst: &Instance) -> (TokenStream, Vec<TokenStream>) {
     let base = decl.module.ident.to_string();
     let has_rows = !decl.row_fields.is_empty();
     let (type_name, problem_name) = if has_rows {
@@ -890,7 +914,7 @@ fn instance(decl: &Declaration, inst: &Instance) -> TokenStream {
             }
         }
     };
-    quote! {
+    let tokens = quote! {
         #[doc = #doc]
         #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
         pub struct #type_name;
@@ -918,8 +942,6 @@ fn instance(decl: &Declaration, inst: &Instance) -> TokenStream {
                 u.write_to(&mut buf);
                 #sv::<f64, #nx>::from(buf)
             }
-            #kernel_items
-            #coefficient_items
         }
 
         impl ::simhc::ProblemInfo for #type_name {
@@ -968,7 +990,15 @@ fn instance(decl: &Declaration, inst: &Instance) -> TokenStream {
         #simulator
 
         #coefficient_form
+    };
+    let mut items = Vec::new();
+    if !kernel_items.is_empty() {
+        items.push(kernel_items);
     }
+    if !coefficient_items.is_empty() {
+        items.push(coefficient_items);
+    }
+    (tokens, items)
 }
 
 /// `impl CoefficientForm`: coefficients from parameters, and the system over coefficients.

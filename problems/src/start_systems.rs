@@ -325,7 +325,7 @@ pub fn grps7_aligned_target(start: &SVector<C, 84>, target: &SVector<f64, 84>) -
             let num: C = (0..3).map(|k| start[idx(k)] * target[idx(k)]).sum();
             let scale = num / den;
             // A start bearing (numerically) orthogonal to the target's: keep the target's.
-            if !(scale.norm() > 1e-12) || !scale.re.is_finite() || !scale.im.is_finite() {
+            if scale.norm().is_nan() || scale.norm() <= 1e-12 || !scale.re.is_finite() || !scale.im.is_finite() {
                 continue;
             }
             for k in 0..3 {

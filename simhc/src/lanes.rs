@@ -51,6 +51,7 @@ pub struct C64x4 {
 
 macro_rules! lanewise {
     ($trait:ident, $method:ident, $op:tt) => {
+        #[allow(clippy::assign_op_pattern)]
         impl $trait for F64x4 {
             type Output = Self;
             #[inline(always)]

@@ -332,6 +332,9 @@ fn data_struct(name: &Ident, doc: &str, fields: &[Field]) -> TokenStream {
 }
 
 /// The whole generated module.
+/// Output entries of a rendered function: index tokens and the node they are assigned.
+type Outputs = Vec<(TokenStream, NodeId)>;
+
 /// Sizes shared by the row kernels of one instance.
 #[derive(Clone, Copy)]
 struct RowShape {
@@ -437,7 +440,7 @@ fn row_outputs(
     vars: &VarTable,
     shape: RowShape,
     with_j: bool,
-) -> (Vec<(TokenStream, NodeId)>, Vec<(TokenStream, NodeId)>) {
+) -> (Outputs, Outputs) {
     let node = |dag: &mut Dag, poly: &crate::poly::Poly| dag.polynomial(poly, vars);
     let f = (0..shape.epr).map(|i| (n(i).into_token_stream(), node(dag, &eqs[i]))).collect();
     let mut j = Vec::new();

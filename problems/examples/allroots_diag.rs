@@ -1,0 +1,88 @@
+//! Where the GRPS7 all-roots time goes: per-evaluation costs of the generated code, and step
+//! statistics of the 140 paths of a few noise-free solves (the homotopy of `solve_grps7`,
+//! without its path-jump repair and polishing).
+//!
+//! ```sh
+//! cargo run --release -p simhc-problems --example allroots_diag -- 3   # seeds 0..3
+//! ```
+
+use nalgebra::{Complex, SMatrix, SVector};
+use simhc::all_roots::{AllRootsOptions, CoefficientParameterHomotopy};
+use simhc::homotopy::ParameterHomotopy;
+use simhc::tracker::track;
+use simhc::Problem;
+use simhc_problems::grps::scene::GrpsSceneConfig;
+use simhc_problems::grps::{self, Grps7};
+use simhc_problems::start_systems::{grps7_aligned_target, grps7_start};
+use std::hint::black_box;
+use std::time::Instant;
+
+type C = Complex<f64>;
+
+/// Mean time of `f` in microseconds over `n` calls.
+fn time_us(n: usize, mut f: impl FnMut()) -> f64 {
+    let t0 = Instant::now();
+    for _ in 0..n {
+        f();
+    }
+    t0.elapsed().as_secs_f64() * 1e6 / n as f64
+}
+
+fn main() {
+    let seeds: u64 = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(3);
+    let start = grps7_start();
+    let (x, p) = (start.solutions[0], start.params);
+    let (xr, pr) = (x.map(|z| z.re), p.map(|z| z.re));
+    let mut f = SVector::<C, 8>::zeros();
+    let mut j = SMatrix::<C, 8, 8>::zeros();
+    let mut fr = SVector::<f64, 8>::zeros();
+    let mut jr = SMatrix::<f64, 8, 8>::zeros();
+    let n = 200_000;
+    println!("per evaluation (us):");
+    let t = time_us(n, || Grps7::residual_jacobian(black_box(&x), black_box(&p), &mut f, &mut j));
+    println!("  complex residual + Jacobian  {t:.3}");
+    let t = time_us(n, || Grps7::residual(black_box(&x), black_box(&p), &mut f));
+    println!("  complex residual             {t:.3}");
+    let t = time_us(n, || Grps7::residual_jacobian(black_box(&xr), black_box(&pr), &mut fr, &mut jr));
+    println!("  real residual + Jacobian     {t:.3}");
+    let t = time_us(n, || {
+        let lu = black_box(&j).lu();
+        black_box(lu.solve(&f));
+    });
+    println!("  nalgebra complex LU + solve  {t:.3} (reference)");
+
+    let options = AllRootsOptions::default();
+    println!("paths of solve_grps7's homotopy ({} start solutions):", start.solutions.len());
+    for seed in 0..seeds {
+        let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(seed).unwrap();
+        let target = Grps7::params(&grps::rows_of::<7>(&scene.correspondences).unwrap());
+        let aligned = grps7_aligned_target(&start.params, &target);
+        let base = ParameterHomotopy::<Grps7, C, 84>::new(start.params, aligned);
+        let Some(h) = CoefficientParameterHomotopy::<Grps7, 84, { Grps7::NC }>::new::<8>(base) else {
+            println!("  seed {seed}: coefficients not polynomial in t");
+            continue;
+        };
+        let t0 = Instant::now();
+        let (mut acc, mut rej, mut fact, mut newton, mut failed) = (0, 0, 0, 0, 0);
+        for x0 in &start.solutions {
+            match track(&h, x0, &options.tracker) {
+                Ok(r) => {
+                    acc += r.stats.accepted_steps;
+                    rej += r.stats.rejected_steps;
+                    fact += r.stats.factorizations;
+                    newton += r.stats.newton_iterations;
+                }
+                Err(_) => failed += 1,
+            }
+        }
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let k = start.solutions.len() as f64;
+        println!(
+            "  seed {seed}: {ms:.1} ms; per path {:.1} accepted, {:.1} rejected steps, {:.1} factorizations, {:.1} Newton iterations; {failed} failed",
+            acc as f64 / k,
+            rej as f64 / k,
+            fact as f64 / k,
+            newton as f64 / k,
+        );
+    }
+}

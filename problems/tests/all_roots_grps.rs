@@ -272,3 +272,34 @@ fn sign_flip_of_a_real_solution_is_the_same_rotation() {
     let r = |v: &SVector<f64, 8>| rotation_from_quat([v[0], v[1], v[2], v[3]]);
     assert!((r(&x) - r(&y)).amax() < 1e-15);
 }
+
+/// The aligned target is the same problem (the ground truth solves it, row `i` of the residual
+/// is the target's times the product of that row's two bearing scales) and a different point
+/// of parameter space (closer to the start system's bearings).
+#[test]
+fn aligned_target_has_the_same_solutions() {
+    use simhc_problems::start_systems::grps7_aligned_target;
+    let start = grps7_start();
+    for seed in [3u64, 4, 5] {
+        let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(seed).unwrap();
+        let target = Grps7::params(&grps::rows_of::<7>(&scene.correspondences).unwrap());
+        let gt = grps::unknowns_of(&scene.rotation, &scene.translation, scene.scale).map(|v| C::new(v, 0.0));
+        let aligned = grps7_aligned_target(&start.params, &target);
+        let mut f = SVector::<C, 8>::zeros();
+        Grps7::residual(&gt, &aligned, &mut f);
+        let worst = f.iter().map(|z| z.norm()).fold(0.0, f64::max);
+        assert!(worst < 1e-9, "seed {seed}: residual {worst:e}");
+        // Closer to the start's bearings than the unit target bearings are.
+        let dist = |p: &SVector<C, 84>| {
+            (0..7).flat_map(|r| [0usize, 1, 2, 6, 7, 8].map(|k| r * 12 + k)).map(|i| (p[i] - start.params[i]).norm_sqr()).sum::<f64>()
+        };
+        let plain = target.map(|v| C::new(v, 0.0));
+        assert!(dist(&aligned) < dist(&plain), "seed {seed}");
+        // Origins untouched.
+        for r in 0..7 {
+            for k in [3usize, 4, 5, 9, 10, 11] {
+                assert_eq!(aligned[r * 12 + k], plain[r * 12 + k]);
+            }
+        }
+    }
+}

@@ -20,7 +20,34 @@ fn all_options() -> Vec<(&'static str, TrackerOptions)> {
         ("paper dt=0.02", TrackerOptions::paper(0.02)),
         ("adaptive heun", TrackerOptions { predictor: Predictor::Heun, ..Default::default() }),
         ("single path", TrackerOptions::single_path()),
+        ("hermite 2", TrackerOptions { predictor: Predictor::Hermite { points: 2 }, ..Default::default() }),
+        ("hermite 3", TrackerOptions { predictor: Predictor::Hermite { points: 3 }, ..Default::default() }),
     ]
+}
+
+/// The multistep predictor factorizes only to start (the start tangent, then Heun until the
+/// first accepted step gives it a history); Heun factorizes once more per step.
+#[test]
+fn hermite_predictor_needs_no_stage_factorizations() {
+    let (p0, p1) = circle_line_pair(12);
+    let [s0, _] = circle_line_intersections(&p0).unwrap();
+    let [s1, _] = circle_line_intersections(&p1).unwrap();
+    let h = ParameterHomotopy::<CircleLine, f64, 6>::new(p0, p1);
+    // Small steps so that the path has many of them.
+    let step = simhc::tracker::AdaptiveStep { max: 0.05, ..Default::default() };
+    for points in [2u8, 3] {
+        let opts = TrackerOptions {
+            predictor: Predictor::Hermite { points },
+            ..TrackerOptions::adaptive(step)
+        };
+        let r = track(&h, &s0, &opts).unwrap();
+        assert_close("hermite", &r.x, &s1);
+        let s = r.stats;
+        assert!(s.accepted_steps >= 20, "{s:?}");
+        assert!(s.factorizations - s.newton_iterations <= 2 + s.rejected_steps, "{points}: {s:?}");
+        let heun = track(&h, &s0, &TrackerOptions { predictor: Predictor::Heun, ..TrackerOptions::adaptive(step) }).unwrap();
+        assert_eq!(heun.stats.factorizations - heun.stats.newton_iterations, 1 + heun.stats.steps(), "{:?}", heun.stats);
+    }
 }
 
 fn assert_close<const N: usize>(name: &str, got: &SVector<f64, N>, want: &SVector<f64, N>) {

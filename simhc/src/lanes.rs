@@ -176,9 +176,9 @@ impl Lanes for C64x4 {
 }
 
 /// A row-kernel evaluation, run by [`dispatch`] with the widest vector instructions the CPU
-/// has. Generated code wraps each evaluation's arguments in a small struct implementing this,
-/// with `run` marked `#[inline(always)]` so that the whole kernel is compiled inside
-/// [`dispatch`]'s instruction-set variants.
+/// has. Generated code wraps each row-kernel call's arguments in a small struct implementing
+/// this, with `run` marked `#[inline(always)]` so that the kernel is compiled inside each of
+/// [`dispatch`]'s instruction-set variants (once per kernel and scalar type, not per caller).
 pub trait Kernel {
     /// Evaluates.
     fn run(self);

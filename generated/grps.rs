@@ -9569,7 +9569,7 @@ pub mod grps {
                         let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
                             0.0,
                         ); 1];
-                        __SimhcRowKernels::__row_coeff_linear_run(&xl, &rl, &mut fl);
+                        __SimhcRowKernels::__row_coeff_linear(&xl, &rl, &mut fl);
                         ::simhc::lanes::scatter_residual(
                             &fl,
                             chunk * ::simhc::lanes::LANES,
@@ -18844,7 +18844,7 @@ pub mod grps {
                         let mut fl = [<<S as ::simhc::Scalar>::Lanes as ::simhc::lanes::Lanes>::from_real(
                             0.0,
                         ); 1];
-                        __SimhcRowKernels::__row_coeff_linear_run(&xl, &rl, &mut fl);
+                        __SimhcRowKernels::__row_coeff_linear(&xl, &rl, &mut fl);
                         ::simhc::lanes::scatter_residual(
                             &fl,
                             chunk * ::simhc::lanes::LANES,

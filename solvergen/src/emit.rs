@@ -352,7 +352,6 @@ struct RowShape {
 #[allow(clippy::too_many_arguments)]
 fn row_loop(
     shape: RowShape,
-    type_name: &Ident,
     kernel: &str,
     src: TokenStream,
     row_len: usize,
@@ -365,7 +364,6 @@ fn row_loop(
     let lanes = quote!(<S as ::simhc::Scalar>::Lanes);
     let zero = quote!(<#lanes as ::simhc::lanes::Lanes>::from_real(0.0));
     let kernel = format_ident!("{}_run", kernel);
-    let _ = type_name;
     let (decl_j, call) = if kernel_j {
         (quote!(let mut jl = [#zero; #ej];), quote!(__SimhcRowKernels::#kernel(&xl, &rl, &mut fl, &mut jl);))
     } else {
@@ -500,7 +498,7 @@ struct RowKernels {
 }
 
 impl RowKernels {
-    fn new(decl: &Declaration, inst: &Instance, row_len: usize, type_name: &Ident) -> Self {
+    fn new(decl: &Declaration, inst: &Instance, row_len: usize) -> Self {
         let one = crate::lower::lower(decl, 1);
         let shape = RowShape { nx: inst.vars.nx(), nf: inst.equations.len(), rows: inst.rows, epr: inst.eqs_per_row };
         let npk = one.vars.np();
@@ -515,7 +513,7 @@ impl RowKernels {
         let kernel_fused = rename_row_input(kernel_fused, "p");
 
         let lp = |kernel: &str, with_j: bool, f_out: Option<TokenStream>, j_out: Option<TokenStream>| {
-            row_loop(shape, type_name, kernel, quote!(p), row_len, npk, with_j, f_out, j_out)
+            row_loop(shape, kernel, quote!(p), row_len, npk, with_j, f_out, j_out)
         };
         let g = |f: bool, j: bool| global_part(&inst.equations, &inst.vars, shape, f, j);
         let (g_r, g_j, g_f) = (g(true, false), g(false, true), g(true, true));
@@ -546,7 +544,6 @@ impl RowKernels {
         &self,
         inst: &Instance,
         split: &crate::lower::CoefficientSplit,
-        type_name: &Ident,
     ) -> Option<(TokenStream, TokenStream, TokenStream, TokenStream, TokenStream)> {
         let one_split = crate::lower::split_coefficients(&self.one);
         if !row_blocks(split, &one_split, inst, &self.one, self.row_len) {
@@ -565,29 +562,26 @@ impl RowKernels {
         let (f, _) = row_outputs(&mut dag, &one_split.linear, vars, shape, false);
         let k_linear = rename_row_input(render_with(&dag, vars, &[(quote!(f), &f)]), "c");
 
-        let nc = split.table.len();
         let lp = |kernel: &str, src: TokenStream, with_j: bool, f_out: TokenStream, j_out: Option<TokenStream>| {
-            row_loop(shape, type_name, kernel, src, nc1, nc1, with_j, Some(f_out), j_out)
+            row_loop(shape, kernel, src, nc1, nc1, with_j, Some(f_out), j_out)
         };
         let g = |eqs: &[crate::poly::Poly], f: bool, j: bool| global_part(eqs, &split.vars, shape, f, j);
-        let fused_body = {
+        let fused = {
             let gp = g(&split.equations, true, true);
             let lp = lp("__row_coeff_residual_jacobian", quote!(c), true, quote!(f), Some(quote!(j)));
             quote!(#gp #lp)
         };
-        let residual_body = {
+        let residual = {
             let gp = g(&split.equations, true, false);
             let lp = lp("__row_coeff_residual", quote!(c), false, quote!(f), None);
             quote!(#gp #lp)
         };
-        let linear_body = {
+        let linear = {
             // Global rows of the linear part write `out`.
             let gp = if shape.nf > shape.rows * shape.epr { global_linear(&split.linear, &split.vars, shape) } else { quote!() };
             let lp = lp("__row_coeff_linear", quote!(dc), false, quote!(out), None);
             quote!(#gp #lp)
         };
-        let _ = nc;
-        let (fused, residual, linear) = (fused_body, residual_body, linear_body);
         let items = [
             kernel_item(
                 "__row_coeff_residual_jacobian",
@@ -637,7 +631,8 @@ impl RowKernels {
                         }
                     }
                     let mut fl = [#zero; #epr];
-                    __SimhcRowKernels::__row_coeff_linear_run(&xl, &rl, &mut fl);
+                    // Already inside `dispatch`: the kernel body, not its dispatching `_run`.
+                    __SimhcRowKernels::__row_coeff_linear(&xl, &rl, &mut fl);
                     ::simhc::lanes::scatter_residual(&fl, chunk * ::simhc::lanes::LANES, #rows, out);
                 }
             };
@@ -839,7 +834,7 @@ fn instance(decl: &Declaration, inst: &Instance) -> (TokenStream, Vec<TokenStrea
     let sm = quote!(::simhc::__private::nalgebra::SMatrix);
 
     let row_len_v: usize = decl.row_fields.iter().map(|f| f.shape.scalar_count()).sum();
-    let row_kernels = (has_rows && inst.rows >= 2).then(|| RowKernels::new(decl, inst, row_len_v, &type_name));
+    let row_kernels = (has_rows && inst.rows >= 2).then(|| RowKernels::new(decl, inst, row_len_v));
     let (residual, jacobian, fused, kernel_items) = if let Some(k) = &row_kernels {
         (k.residual.clone(), k.jacobian.clone(), k.fused.clone(), k.items.clone())
     } else {
@@ -868,7 +863,7 @@ fn instance(decl: &Declaration, inst: &Instance) -> (TokenStream, Vec<TokenStrea
 
     let split = crate::lower::split_coefficients(inst);
     let nc = n(split.table.len());
-    let laned_coefficients = row_kernels.as_ref().and_then(|k| k.coefficient_form(inst, &split, &type_name));
+    let laned_coefficients = row_kernels.as_ref().and_then(|k| k.coefficient_form(inst, &split));
     let coefficient_form = coefficient_form(inst, &split, &type_name, laned_coefficients.as_ref().map(|l| (&l.1, &l.2, (&l.3, &l.4))));
     let coefficient_items = laned_coefficients.as_ref().map(|l| l.0.clone()).unwrap_or_default();
 

@@ -20,7 +20,7 @@ use nalgebra::{SMatrix, SVector};
 
 /// The factorization met a (numerically) singular matrix or non-finite entries.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum FactorError {
+pub(crate) enum FactorError {
     /// Pivot below the relative threshold.
     Singular,
     /// NaN or infinity in the matrix.
@@ -53,12 +53,9 @@ impl<S: Scalar, const NX: usize, const NF: usize> LinearSolver<S, NX, NF> {
     pub(crate) fn factor(&mut self, j: &SMatrix<S, NF, NX>) -> Result<(), FactorError> {
         self.valid = false;
         if NF == NX && lane_lu::pays(NX) {
-            let (scale, finite) = norm1_finite::<S, NX>(j.as_slice());
-            if !finite {
-                return Err(FactorError::NonFinite);
-            }
+            let threshold = pivot_threshold::<S, NX>(j.as_slice())?;
             let a = SMatrix::<S, NX, NX>::from_column_slice(j.as_slice());
-            self.lanes.factor(&a, scale * (NX as f64) * f64::EPSILON)?;
+            self.lanes.factor(&a, threshold)?;
         } else if NF == NX {
             // Same column-major layout: copy straight through.
             for (d, s) in self.m.as_mut_slice().iter_mut().zip(j.as_slice()) {
@@ -159,6 +156,17 @@ fn norm1_finite<S: Scalar, const N: usize>(a: &[S]) -> (f64, bool) {
     (sums.iter().fold(0.0f64, |m, &v| m.max(v)), finite)
 }
 
+/// The LU's singularity threshold `N * eps * |A|_1` of the column-major `N x N` matrix `a`
+/// (both LUs use it), or `NonFinite`.
+#[inline]
+fn pivot_threshold<S: Scalar, const N: usize>(a: &[S]) -> Result<f64, FactorError> {
+    let (scale, finite) = norm1_finite::<S, N>(a);
+    if !finite {
+        return Err(FactorError::NonFinite);
+    }
+    Ok(scale * (N as f64) * f64::EPSILON)
+}
+
 /// In-place LU with partial pivoting of the column-major `N x N` matrix `a`, `P A = L U`, `L`
 /// unit lower (below the diagonal), `U` on and above. Singular when a pivot is at most
 /// `N * eps * |A|_1` (matrix 1-norm, complex entries measured by `|re| + |im|` as in the pivot
@@ -172,11 +180,7 @@ fn lu_in_place<S: Scalar, const N: usize>(
     if a.len() != N * N {
         return Err(FactorError::NonFinite);
     }
-    let (scale, finite) = norm1_finite::<S, N>(a);
-    if !finite {
-        return Err(FactorError::NonFinite);
-    }
-    let threshold = scale * (N as f64) * f64::EPSILON;
+    let threshold = pivot_threshold::<S, N>(a)?;
     for k in 0..N {
         // Pivot search in column k, rows k..N.
         let col_k = &a[k * N..(k + 1) * N];

@@ -9526,6 +9526,68 @@ pub mod grps {
                 first += ::simhc::lanes::LANES;
             }
         }
+        const PATH_LANES: ::core::option::Option<usize> = ::core::option::Option::Some(
+            1,
+        );
+        #[inline(always)]
+        fn lanes_row<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            c: &[S],
+            dc: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(c), Ok(dc), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 38]>::try_from(c),
+                <&[S; 38]>::try_from(dc),
+                <&mut [S; 1]>::try_from(f),
+                <&mut [S; 8]>::try_from(j),
+                <&mut [S; 1]>::try_from(d),
+            ) else {
+                return;
+            };
+            __SimhcRowKernels::__row_coeff_residual_jacobian(x, c, f, j);
+            __SimhcRowKernels::__row_coeff_linear(x, dc, d);
+        }
+        #[inline(always)]
+        #[allow(unused_variables)]
+        fn lanes_globals<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            f: &mut [S],
+            j: &mut [S],
+        ) {
+            let (Ok(f), Ok(j)) = (<&mut [S; 1]>::try_from(f), <&mut [S; 8]>::try_from(j))
+            else {
+                return;
+            };
+            let x_q_0 = x[0];
+            let x_q_1 = x[1];
+            let x_q_2 = x[2];
+            let x_q_3 = x[3];
+            let k8: S = S::from_real(1.0);
+            let k21: S = S::from_real(0.0);
+            let t1 = x_q_0 * x_q_0;
+            let t3 = x_q_1 * x_q_1;
+            let t5 = x_q_2 * x_q_2;
+            let t7 = x_q_3 * x_q_3;
+            let t9 = -t1;
+            let t10 = t9 - t3;
+            let t11 = t10 - t5;
+            let t12 = t11 - t7;
+            let t13 = k8 + t12;
+            let t15 = -t13;
+            let t17 = x_q_0.scale(2.0);
+            let t18 = x_q_1.scale(2.0);
+            let t19 = x_q_2.scale(2.0);
+            let t20 = x_q_3.scale(2.0);
+            f[0] = t15;
+            j.fill(S::from_real(0.0));
+            j[0] = t17;
+            j[1] = t18;
+            j[2] = t19;
+            j[3] = t20;
+        }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             7,
             38,
@@ -18800,6 +18862,68 @@ pub mod grps {
                 ::simhc::lanes::scatter_residual(&fl, first, 8, out);
                 first += ::simhc::lanes::LANES;
             }
+        }
+        const PATH_LANES: ::core::option::Option<usize> = ::core::option::Option::Some(
+            1,
+        );
+        #[inline(always)]
+        fn lanes_row<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            c: &[S],
+            dc: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(c), Ok(dc), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 38]>::try_from(c),
+                <&[S; 38]>::try_from(dc),
+                <&mut [S; 1]>::try_from(f),
+                <&mut [S; 8]>::try_from(j),
+                <&mut [S; 1]>::try_from(d),
+            ) else {
+                return;
+            };
+            __SimhcRowKernels::__row_coeff_residual_jacobian(x, c, f, j);
+            __SimhcRowKernels::__row_coeff_linear(x, dc, d);
+        }
+        #[inline(always)]
+        #[allow(unused_variables)]
+        fn lanes_globals<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            f: &mut [S],
+            j: &mut [S],
+        ) {
+            let (Ok(f), Ok(j)) = (<&mut [S; 1]>::try_from(f), <&mut [S; 8]>::try_from(j))
+            else {
+                return;
+            };
+            let x_q_0 = x[0];
+            let x_q_1 = x[1];
+            let x_q_2 = x[2];
+            let x_q_3 = x[3];
+            let k8: S = S::from_real(1.0);
+            let k21: S = S::from_real(0.0);
+            let t1 = x_q_0 * x_q_0;
+            let t3 = x_q_1 * x_q_1;
+            let t5 = x_q_2 * x_q_2;
+            let t7 = x_q_3 * x_q_3;
+            let t9 = -t1;
+            let t10 = t9 - t3;
+            let t11 = t10 - t5;
+            let t12 = t11 - t7;
+            let t13 = k8 + t12;
+            let t15 = -t13;
+            let t17 = x_q_0.scale(2.0);
+            let t18 = x_q_1.scale(2.0);
+            let t19 = x_q_2.scale(2.0);
+            let t20 = x_q_3.scale(2.0);
+            f[0] = t15;
+            j.fill(S::from_real(0.0));
+            j[0] = t17;
+            j[1] = t18;
+            j[2] = t19;
+            j[3] = t20;
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             8,

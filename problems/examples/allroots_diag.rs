@@ -8,9 +8,9 @@
 
 use nalgebra::{Complex, SMatrix, SVector};
 use simhc::all_roots::{AllRootsOptions, CoefficientParameterHomotopy};
-use simhc::homotopy::ParameterHomotopy;
+use simhc::homotopy::{Homotopy, ParameterHomotopy};
 use simhc::tracker::track;
-use simhc::Problem;
+use simhc::{CoefficientForm, Problem};
 use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::grps::{self, Grps7};
 use simhc_problems::start_systems::{grps7_aligned_target, grps7_start};
@@ -45,6 +45,14 @@ fn main() {
     println!("  complex residual             {t:.3}");
     let t = time_us(n, || Grps7::residual_jacobian(black_box(&xr), black_box(&pr), &mut fr, &mut jr));
     println!("  real residual + Jacobian     {t:.3}");
+    let mut c = SVector::<C, { Grps7::NC }>::zeros();
+    Grps7::coefficients(&p, &mut c);
+    let t = time_us(n, || Grps7::coefficients(black_box(&p), &mut c));
+    println!("  complex coefficients c(p)    {t:.3}");
+    let t = time_us(n, || Grps7::residual_jacobian_coeffs(black_box(&x), black_box(&c), &mut f, &mut j));
+    println!("  complex residual + Jacobian from c  {t:.3}");
+    let t = time_us(n, || Grps7::coefficient_part(black_box(&x), black_box(&c), &mut f));
+    println!("  complex coefficient part (linear in c)  {t:.3}");
     let t = time_us(n, || {
         let lu = black_box(&j).lu();
         black_box(lu.solve(&f));
@@ -62,6 +70,20 @@ fn main() {
             println!("  seed {seed}: coefficients not polynomial in t");
             continue;
         };
+        if seed == 0 {
+            let (x0, t) = (start.solutions[0], 0.37);
+            let mut hv = SVector::<C, 8>::zeros();
+            let mut hj = SMatrix::<C, 8, 8>::zeros();
+            let e = time_us(n, || h.evaluate(black_box(&x0), black_box(t), &mut hv, &mut hj));
+            let d = time_us(n, || h.dt(black_box(&x0), black_box(t), &mut hv));
+            let jd = time_us(n, || h.jacobian_dt(black_box(&x0), black_box(t), &mut hj, &mut hv));
+            println!("  homotopy calls (us): evaluate {e:.3}, dt {d:.3}, jacobian_dt {jd:.3}");
+            if std::env::var("DTLOOP").is_ok() {
+                let d = time_us(20 * n, || h.dt(black_box(&x0), black_box(t), &mut hv));
+                println!("  dt loop {d:.3}");
+                return;
+            }
+        }
         let t0 = Instant::now();
         let (mut acc, mut rej, mut fact, mut newton, mut failed) = (0, 0, 0, 0, 0);
         for x0 in &start.solutions {

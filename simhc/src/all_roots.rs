@@ -18,6 +18,7 @@
 
 use crate::homotopy::{real_if_close, to_complex, Homotopy, ParameterHomotopy};
 use crate::monodromy::{relative_distance, SignFlip, C};
+use crate::tracker::batch::{batch_supported, track_batch, LaneSystem};
 use crate::tracker::{
     newton, track, AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackError, TrackStats,
     TrackerOptions,
@@ -73,6 +74,11 @@ pub struct AllRootsOptions {
     pub polish_iterations: usize,
     /// Track in parallel with rayon. Default `false`.
     pub parallel: bool,
+    /// Track [`crate::lanes::LANES`] paths at a time, one per SIMD lane
+    /// ([`crate::tracker::batch`]), when the problem has path-lane code
+    /// ([`CoefficientForm::PATH_LANES`], via [`solve_all_fast`]) and the tracker settings allow
+    /// it ([`batch_supported`]); otherwise, and with `false`, one path at a time. Default `true`.
+    pub batch: bool,
     /// Path-jump repair: paths that failed or whose end points coincide with another path's
     /// (relative distance below `duplicate_tolerance`, modulo the symmetry) are tracked again
     /// with these stricter settings, up to `retrack_rounds` times (each round halves the largest
@@ -121,6 +127,7 @@ impl Default for AllRootsOptions {
             real_tolerance: 1e-6,
             polish_iterations: 2,
             parallel: false,
+            batch: true,
             retrack: Some(strict_tracker()),
             retrack_rounds: 2,
             duplicate_tolerance: 1e-8,
@@ -231,7 +238,7 @@ where
     P: ParamDerivative<N, N, NP>,
 {
     let h = homotopy_for::<P, N, NP>(start, to_complex(target), options);
-    solve_along::<P, _, N, NP>(&h, start, target, options)
+    solve_along::<P, _, N, NP>(&h, start, target, options, None)
 }
 
 /// [`solve_all`] with `dH/dt` from the coefficient form ([`CoefficientParameterHomotopy`]):
@@ -263,11 +270,37 @@ where
     P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
 {
     let base = homotopy_for::<P, N, NP>(start, *equivalent, options);
-    match CoefficientParameterHomotopy::<P, NP, NC>::new::<N>(base) {
-        Some(h) => solve_along::<P, _, N, NP>(&h, start, target, options),
-        None => solve_along::<P, _, N, NP>(&base, start, target, options),
+    let Some(h) = CoefficientParameterHomotopy::<P, NP, NC>::new::<N>(base) else {
+        return solve_along::<P, _, N, NP>(&base, start, target, options, None);
+    };
+    let lanes = if options.batch && batch_supported(&options.tracker) {
+        LaneSystem::<P, N, NC>::new::<NP>(h.coefficient_poly())
+    } else {
+        None
+    };
+    match lanes {
+        Some(system) => {
+            let batch = |indices: &[usize]| -> Vec<PathResult<N>> {
+                let run = |part: &[usize]| {
+                    track_batch::<P, _, N, NP, NC>(&system, &h, &start.solutions, part, &options.tracker)
+                        .unwrap_or_default()
+                };
+                if options.parallel {
+                    let parts = rayon::current_num_threads().max(1);
+                    let size = indices.len().div_ceil(parts).max(1);
+                    indices.par_chunks(size).flat_map_iter(run).collect()
+                } else {
+                    run(indices)
+                }
+            };
+            solve_along::<P, _, N, NP>(&h, start, target, options, Some(&batch))
+        }
+        None => solve_along::<P, _, N, NP>(&h, start, target, options, None),
     }
 }
+
+/// One path's outcome.
+type PathResult<const N: usize> = Result<crate::tracker::TrackResult<C, N>, TrackError>;
 
 /// Tracks all start solutions along `h` (sequentially or with rayon) and collects the result.
 fn solve_along<P, H, const N: usize, const NP: usize>(
@@ -275,6 +308,7 @@ fn solve_along<P, H, const N: usize, const NP: usize>(
     start: &StartSystem<N, NP>,
     target: &SVector<f64, NP>,
     options: &AllRootsOptions,
+    batch: Option<&(dyn Fn(&[usize]) -> Vec<PathResult<N>> + Sync)>,
 ) -> AllRootsResult<N>
 where
     P: ParamDerivative<N, N, NP>,
@@ -289,7 +323,10 @@ where
         }
     };
     let all: Vec<usize> = (0..start.solutions.len()).collect();
-    let mut results = track_all(&all, &options.tracker);
+    let mut results = match batch {
+        Some(track_lanes) => track_lanes(&all),
+        None => track_all(&all, &options.tracker),
+    };
     let mut retracked = 0;
     if let Some(strict) = options.retrack {
         let mut opts = strict;
@@ -416,6 +453,8 @@ pub const MAX_COEFFICIENT_DEGREE: usize = 4;
 /// `H` and `J_x` still come from the parameter form (cheaper than the coefficient form there).
 pub struct CoefficientParameterHomotopy<P, const NP: usize, const NC: usize> {
     base: ParameterHomotopy<P, C, NP>,
+    /// `c(t) = sum_k c[k] t^k`.
+    c: Vec<SVector<C, NC>>,
     /// `dc/dt = sum_k dc[k] t^k`.
     dc: Vec<SVector<C, NC>>,
     /// The same polynomial in the row-lane layout of [`CoefficientForm::coefficient_part_poly`]
@@ -498,7 +537,16 @@ impl<P, const NP: usize, const NC: usize> CoefficientParameterHomotopy<P, NP, NC
             }
             _ => Vec::new(),
         };
-        Some(Self { base, dc, dc_lanes })
+        let mut c = a.to_vec();
+        while c.len() > 1 && c.last().is_some_and(|v| v.camax() <= 1e-13 * scale) {
+            c.pop();
+        }
+        Some(Self { base, c, dc, dc_lanes })
+    }
+
+    /// The coefficients along the path, `c(t) = sum_k t^k poly[k]`.
+    pub fn coefficient_poly(&self) -> &[SVector<C, NC>] {
+        &self.c
     }
 
     /// `dH/dt` at `(x, t)`.

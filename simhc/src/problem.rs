@@ -98,4 +98,37 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
         let _ = (x, t, poly);
         out.fill(S::from_real(f64::NAN));
     }
+
+    /// `Some(equations per row)` when the path-lane functions [`CoefficientForm::lanes_row`]
+    /// and [`CoefficientForm::lanes_globals`] are generated (with [`CoefficientForm::ROW_LAYOUT`]
+    /// `Some((rows, per_row))`): then the equations are `rows` blocks of `epr` row equations
+    /// followed by `NF - rows * epr` global equations without coefficients.
+    ///
+    /// Path lanes put one *path* (its own unknowns and coefficients) in each lane, so that
+    /// [`crate::tracker::batch`] tracks [`crate::lanes::LANES`] paths at once.
+    const PATH_LANES: Option<usize> = None;
+
+    /// Row equations of one row for `LANES` paths: from the unknowns `x`, the row's
+    /// coefficients `c` and coefficient derivatives `dc` (`per_row` each), the residuals `f`
+    /// (`epr`), Jacobian rows `j` (`epr * NX`, row-major) and the coefficient part at `dc`,
+    /// `d` (`epr`: `dH/dt` for `dc = dc/dt`). Wrong lengths leave the outputs untouched. The
+    /// default does nothing.
+    #[inline(always)]
+    fn lanes_row<L: crate::lanes::Lanes>(
+        x: &[L; NX],
+        c: &[L],
+        dc: &[L],
+        f: &mut [L],
+        j: &mut [L],
+        d: &mut [L],
+    ) {
+        let _ = (x, c, dc, f, j, d);
+    }
+
+    /// The global equations' residuals `f` (`NF - rows * epr`) and Jacobian rows `j`
+    /// (row-major) for `LANES` paths. The default does nothing.
+    #[inline(always)]
+    fn lanes_globals<L: crate::lanes::Lanes>(x: &[L; NX], f: &mut [L], j: &mut [L]) {
+        let _ = (x, f, j);
+    }
 }

@@ -643,7 +643,9 @@ impl RowKernels {
                 (quote!(out), quote!(&'a mut ::simhc::__private::nalgebra::SVector<S, #nf_t>)),
             ];
             let wrapped = dispatched(&args, body);
+            let lanes_items = self.path_lanes(&split.equations, &split.vars, nc1);
             quote! {
+                #lanes_items
                 const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((#rows, #nc1_t));
                 #[inline]
                 fn coefficient_part_poly<S: ::simhc::Scalar>(
@@ -659,6 +661,68 @@ impl RowKernels {
             quote!()
         };
         Some((quote!(#(#items)*), fused, residual, linear, poly_fn))
+    }
+}
+
+impl RowKernels {
+    /// `CoefficientForm`'s path-lane items (`PATH_LANES`, `lanes_row`, `lanes_globals`): the
+    /// coefficient-form row kernels and the (coefficient-free) global equations, generic over
+    /// `simhc::lanes::Lanes`, for callers that put one *path* in each lane.
+    fn path_lanes(&self, eqs: &[crate::poly::Poly], vars: &VarTable, nc1: usize) -> TokenStream {
+        let shape = self.shape;
+        let first = shape.rows * shape.epr;
+        let ng = shape.nf - first;
+        let (nx, k, epr, ej, ng_t, ngj) =
+            (n(shape.nx), n(nc1), n(shape.epr), n(shape.epr * shape.nx), n(ng), n(ng * shape.nx));
+        let mut dag = Dag::default();
+        let mut f = Vec::new();
+        let mut j = Vec::new();
+        for g in first..shape.nf {
+            f.push((n(g - first).into_token_stream(), dag.polynomial(&eqs[g], vars)));
+            for x in 0..shape.nx {
+                j.push((n((g - first) * shape.nx + x).into_token_stream(), dag.polynomial(&eqs[g].diff(x as Var), vars)));
+            }
+        }
+        let globals = if ng == 0 {
+            quote!()
+        } else {
+            let body = render_with(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]);
+            quote! {
+                let (Ok(f), Ok(j)) = (<&mut [S; #ng_t]>::try_from(f), <&mut [S; #ngj]>::try_from(j)) else {
+                    return;
+                };
+                #body
+            }
+        };
+        quote! {
+            const PATH_LANES: ::core::option::Option<usize> = ::core::option::Option::Some(#epr);
+            #[inline(always)]
+            fn lanes_row<S: ::simhc::lanes::Lanes>(
+                x: &[S; #nx],
+                c: &[S],
+                dc: &[S],
+                f: &mut [S],
+                j: &mut [S],
+                d: &mut [S],
+            ) {
+                let (Ok(c), Ok(dc), Ok(f), Ok(j), Ok(d)) = (
+                    <&[S; #k]>::try_from(c),
+                    <&[S; #k]>::try_from(dc),
+                    <&mut [S; #epr]>::try_from(f),
+                    <&mut [S; #ej]>::try_from(j),
+                    <&mut [S; #epr]>::try_from(d),
+                ) else {
+                    return;
+                };
+                __SimhcRowKernels::__row_coeff_residual_jacobian(x, c, f, j);
+                __SimhcRowKernels::__row_coeff_linear(x, dc, d);
+            }
+            #[inline(always)]
+            #[allow(unused_variables)]
+            fn lanes_globals<S: ::simhc::lanes::Lanes>(x: &[S; #nx], f: &mut [S], j: &mut [S]) {
+                #globals
+            }
+        }
     }
 }
 

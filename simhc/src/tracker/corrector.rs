@@ -83,6 +83,9 @@ pub(crate) struct CorrectorReport {
     pub theta_predicted: f64,
     /// Estimated error of the final iterate.
     pub accuracy: f64,
+    /// `|dx_0|_w / |x_pred - x|_w`, the first update relative to the predicted move (the
+    /// path-jump guard's ratio), when the tracker set a guard; else NaN.
+    pub relative_correction: f64,
 }
 
 /// Newton (`NF = NX`) or Gauss-Newton (`NF > NX`) on `H(., t) = 0` from `x`, with a fresh
@@ -109,16 +112,7 @@ where
 {
     let mut r = SVector::<S, NF>::zeros();
     let mut j = SMatrix::<S, NF, NX>::zeros();
-    let mut report = CorrectorReport {
-        outcome: Err(Trouble::NotConverged),
-        iterations: 0,
-        norm_dx0: f64::NAN,
-        theta1: f64::NAN,
-        theta2: f64::NAN,
-        norm_dx1: f64::NAN,
-        theta_predicted: f64::NAN,
-        accuracy: f64::INFINITY,
-    };
+    let mut report = CorrectorReport::new();
     let mut prev = f64::NAN;
     for k in 0..s.max_iterations {
         h.evaluate(x, t, &mut r, &mut j);
@@ -130,76 +124,116 @@ where
             return report;
         }
         let dx = solver.solve(&r);
-        let n = weighted_norm(&dx, w);
-        if !n.is_finite() {
-            report.outcome = Err(Trouble::NonFinite);
+        if apply_update(x, &dx, w, s, &mut report, &mut prev, NF == NX) {
             return report;
         }
-        *x -= dx;
-        if !all_finite(x) {
-            report.outcome = Err(Trouble::NonFinite);
-            return report;
-        }
-        if max_abs(x) > s.max_norm {
-            report.outcome = Err(Trouble::Diverged);
-            return report;
-        }
-        let accuracy = if k == 0 {
-            report.norm_dx0 = n;
-            if n > s.max_first_update && n > s.tolerance {
-                report.accuracy = n;
-                report.outcome = Err(Trouble::Contraction);
-                return report;
-            }
-            match s.omega {
-                Some(omega) if s.estimate_error => {
-                    let predicted = 0.5 * omega * n;
-                    if predicted > s.max_contraction {
-                        report.theta_predicted = predicted;
-                        report.accuracy = n;
-                        report.outcome = Err(Trouble::Contraction);
-                        return report;
-                    }
-                    // Quadratic convergence: error after the update ~ omega/2 |dx_0|^2; a
-                    // factor 2 of safety on the estimate of omega. Not for Gauss-Newton, whose
-                    // error after one update has a linear part too.
-                    if NF == NX {
-                        (2.0 * predicted * n).min(n)
-                    } else {
-                        n
-                    }
-                }
-                _ => n,
-            }
-        } else {
-            let theta = n / prev;
-            if k == 1 {
-                report.theta1 = theta;
-                report.norm_dx1 = n;
-            } else if k == 2 {
-                report.theta2 = theta;
-            }
-            if theta > s.max_contraction {
-                report.accuracy = n;
-                report.outcome = Err(Trouble::Contraction);
-                return report;
-            }
-            if s.estimate_error && theta < 1.0 {
-                (theta / (1.0 - theta) * n).min(n)
-            } else {
-                n
-            }
-        };
-        report.accuracy = if s.estimate_error { accuracy } else { n };
-        if report.accuracy <= s.tolerance
-            || (k >= 1 && report.accuracy <= s.reduction * report.norm_dx0)
-        {
-            report.outcome = Ok(());
-            return report;
-        }
-        prev = n;
     }
     report
+}
+
+impl CorrectorReport {
+    /// Before the first update: not converged, nothing measured.
+    pub(crate) fn new() -> Self {
+        CorrectorReport {
+            outcome: Err(Trouble::NotConverged),
+            iterations: 0,
+            norm_dx0: f64::NAN,
+            theta1: f64::NAN,
+            theta2: f64::NAN,
+            norm_dx1: f64::NAN,
+            theta_predicted: f64::NAN,
+            accuracy: f64::INFINITY,
+            relative_correction: f64::NAN,
+        }
+    }
+}
+
+/// Applies Newton update number `report.iterations - 1` (`x -= dx`) and decides: `true` when
+/// the corrector stops (`report.outcome` says why: converged, contraction, non-finite,
+/// diverged), `false` to go on (the caller stops after `max_iterations` with
+/// `NotConverged`). `prev` carries `|dx|_w` of the previous update; `square`: Newton (not
+/// Gauss-Newton). Shared by [`correct`] and
+/// the batch tracker ([`super::batch`]).
+#[inline]
+pub(crate) fn apply_update<S: Scalar, const NX: usize>(
+    x: &mut SVector<S, NX>,
+    dx: &SVector<S, NX>,
+    w: &SVector<f64, NX>,
+    s: &CorrectorSettings,
+    report: &mut CorrectorReport,
+    prev: &mut f64,
+    square: bool,
+) -> bool {
+    let k = report.iterations.saturating_sub(1);
+    let n = weighted_norm(dx, w);
+    if !n.is_finite() {
+        report.outcome = Err(Trouble::NonFinite);
+        return true;
+    }
+    *x -= dx;
+    if !all_finite(x) {
+        report.outcome = Err(Trouble::NonFinite);
+        return true;
+    }
+    if max_abs(x) > s.max_norm {
+        report.outcome = Err(Trouble::Diverged);
+        return true;
+    }
+    let accuracy = if k == 0 {
+        report.norm_dx0 = n;
+        if n > s.max_first_update && n > s.tolerance {
+            report.accuracy = n;
+            report.outcome = Err(Trouble::Contraction);
+            return true;
+        }
+        match s.omega {
+            Some(omega) if s.estimate_error => {
+                let predicted = 0.5 * omega * n;
+                if predicted > s.max_contraction {
+                    report.theta_predicted = predicted;
+                    report.accuracy = n;
+                    report.outcome = Err(Trouble::Contraction);
+                    return true;
+                }
+                // Quadratic convergence: error after the update ~ omega/2 |dx_0|^2; a
+                // factor 2 of safety on the estimate of omega. Not for Gauss-Newton, whose
+                // error after one update has a linear part too.
+                if square {
+                    (2.0 * predicted * n).min(n)
+                } else {
+                    n
+                }
+            }
+            _ => n,
+        }
+    } else {
+        let theta = n / *prev;
+        if k == 1 {
+            report.theta1 = theta;
+            report.norm_dx1 = n;
+        } else if k == 2 {
+            report.theta2 = theta;
+        }
+        if theta > s.max_contraction {
+            report.accuracy = n;
+            report.outcome = Err(Trouble::Contraction);
+            return true;
+        }
+        if s.estimate_error && theta < 1.0 {
+            (theta / (1.0 - theta) * n).min(n)
+        } else {
+            n
+        }
+    };
+    report.accuracy = if s.estimate_error { accuracy } else { n };
+    if report.accuracy <= s.tolerance
+        || (k >= 1 && report.accuracy <= s.reduction * report.norm_dx0)
+    {
+        report.outcome = Ok(());
+        return true;
+    }
+    *prev = n;
+    false
 }
 
 /// Result of [`newton`].

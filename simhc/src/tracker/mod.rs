@@ -71,6 +71,7 @@
 //! println!("{} steps, {} factorizations", r.stats.accepted_steps, r.stats.factorizations);
 //! ```
 
+pub mod batch;
 mod corrector;
 mod lane_lu;
 mod linalg;
@@ -440,6 +441,8 @@ where
         };
 
         let at_end = t1 >= 1.0;
+        // The predicted move, for the path-jump guard (square adaptive steps only).
+        let moved = weighted_norm(&(x - self.state.x), &self.state.weights);
         let settings = match (opts.step, drag) {
             (StepControl::Fixed { .. }, _) => CorrectorSettings {
                 max_iterations: opts.max_newton_iterations,
@@ -474,15 +477,14 @@ where
                 // The first update also removes what is left of the current point's error.
                 // Not for Gauss-Newton (see `AdaptiveStep` on overdetermined systems).
                 max_first_update: if NF == NX {
-                    a.max_relative_correction
-                        * weighted_norm(&(x - self.state.x), &self.state.weights)
+                    a.max_relative_correction * moved
                         + 2.0 * self.state.accuracy.max(opts.path_tolerance)
                 } else {
                     f64::INFINITY
                 },
             },
         };
-        let report = correct(
+        let mut report = correct(
             h,
             &mut x,
             t1,
@@ -491,6 +493,9 @@ where
             &settings,
             &mut self.state.stats,
         );
+        if settings.max_first_update.is_finite() && moved > 0.0 {
+            report.relative_correction = report.norm_dx0 / moved;
+        }
         if let Some(d) = drag {
             if matches!(report.outcome, Ok(()) | Err(Trouble::NotConverged)) {
                 self.state.stats.drag_steps += 1;

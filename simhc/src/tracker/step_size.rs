@@ -47,9 +47,29 @@ pub(crate) fn grow_factor(
     } else {
         a.max_growth
     };
+    let f = f.min(guard_factor(a, order, report));
     let upper = if after_rejection { 1.0 } else { a.max_growth };
     // Accepted steps never shrink by more than the rejection rule would.
     f.clamp(a.min_shrink, upper)
+}
+
+/// Where the controller aims the path-jump guard's ratio, as a fraction of its limit.
+const GUARD_TARGET: f64 = 0.5;
+
+/// Step factor that brings the path-jump guard's ratio `|dx_0| / |move|` to `GUARD_TARGET`
+/// times its limit ([`AdaptiveStep::max_relative_correction`]); infinite when there is no guard.
+///
+/// Why: the ratio falls like `dt^p` (predictor error `~ dt^(p+1)` over a move `~ dt`), another
+/// law than the contraction's, and near a close path it binds first. Steered by the contraction
+/// alone, the controller kept growing steps that the guard then rejected.
+#[inline]
+fn guard_factor(a: &AdaptiveStep, order: u32, report: &CorrectorReport) -> f64 {
+    let r = report.relative_correction;
+    if r.is_finite() && r > 0.0 && a.max_relative_correction.is_finite() {
+        (GUARD_TARGET * a.max_relative_correction / r).powf(1.0 / order.max(1) as f64)
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// Step factor after a rejected step.
@@ -64,13 +84,12 @@ pub(crate) fn shrink_factor(
     match (trouble, report) {
         (Trouble::Contraction | Trouble::NotConverged, Some(r)) => {
             let theta = observed_theta(r, omega);
-            if theta.is_finite() && theta > 0.0 {
-                (a.target_contraction / theta)
-                    .powf(1.0 / (order as f64 + 1.0))
-                    .clamp(a.min_shrink, 0.5)
+            let f = if theta.is_finite() && theta > 0.0 {
+                (a.target_contraction / theta).powf(1.0 / (order as f64 + 1.0))
             } else {
                 0.5
-            }
+            };
+            f.min(guard_factor(a, order, r)).clamp(a.min_shrink, 0.5)
         }
         _ => 0.5,
     }

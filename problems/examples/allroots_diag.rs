@@ -1,6 +1,7 @@
 //! Where the GRPS7 all-roots time goes: per-evaluation costs of the generated code, and step
 //! statistics of the 140 paths of a few noise-free solves (the homotopy of `solve_grps7`,
-//! without its path-jump repair and polishing).
+//! without its path-jump repair and polishing), tracked one path at a time and with the batch
+//! tracker (`simhc::tracker::batch`, one path per SIMD lane).
 //!
 //! ```sh
 //! cargo run --release -p simhc-problems --example allroots_diag -- 3   # seeds 0..3
@@ -9,6 +10,7 @@
 use nalgebra::{Complex, SMatrix, SVector};
 use simhc::all_roots::{AllRootsOptions, CoefficientParameterHomotopy};
 use simhc::homotopy::{Homotopy, ParameterHomotopy};
+use simhc::tracker::batch::{track_batch, LaneSystem};
 use simhc::tracker::track;
 use simhc::{CoefficientForm, Problem};
 use simhc_problems::grps::scene::GrpsSceneConfig;
@@ -99,6 +101,19 @@ fn main() {
         }
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let k = start.solutions.len() as f64;
+        if let Some(system) = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly()) {
+            let all: Vec<usize> = (0..start.solutions.len()).collect();
+            let t1 = Instant::now();
+            let paths = track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &all, &options.tracker);
+            let batch_ms = t1.elapsed().as_secs_f64() * 1e3;
+            let paths = paths.unwrap_or_default();
+            let ops: usize = paths.iter().flatten().map(|r| r.stats.factorizations).sum();
+            let failed = paths.iter().filter(|r| r.is_err()).count();
+            println!(
+                "  seed {seed}: batch tracker (path lanes) {batch_ms:.1} ms; {:.1} operations per path; {failed} failed",
+                ops as f64 / k
+            );
+        }
         println!(
             "  seed {seed}: {ms:.1} ms; per path {:.1} accepted, {:.1} rejected steps, {:.1} factorizations, {:.1} Newton iterations; {failed} failed",
             acc as f64 / k,

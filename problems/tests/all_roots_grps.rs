@@ -303,3 +303,59 @@ fn aligned_target_has_the_same_solutions() {
         }
     }
 }
+
+/// The batch tracker (one path per SIMD lane) follows the same paths as the one-path tracker:
+/// path by path the same end points, and a path's result does not depend on the other paths in
+/// its batch (bit for bit). The all-roots solver gives the same real solutions either way.
+#[test]
+fn batch_tracking_agrees_with_one_path_at_a_time() {
+    use simhc::all_roots::{all_roots_tracker, CoefficientParameterHomotopy};
+    use simhc::homotopy::ParameterHomotopy;
+    use simhc::tracker::batch::{track_batch, LaneSystem};
+    use simhc::tracker::track;
+    use simhc_problems::start_systems::grps7_aligned_target;
+    let start = grps7_start();
+    let opts = all_roots_tracker();
+    for seed in [0u64, 1] {
+        let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(seed).unwrap();
+        let target = Grps7::params(&grps::rows_of::<7>(&scene.correspondences).unwrap());
+        let aligned = grps7_aligned_target(&start.params, &target);
+        let h = CoefficientParameterHomotopy::<Grps7, 84, { Grps7::NC }>::new::<8>(ParameterHomotopy::new(
+            start.params,
+            aligned,
+        ))
+        .expect("GRPS7 coefficients are polynomial along the segment");
+        let system = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly())
+            .expect("GRPS7 has path-lane code");
+        let all: Vec<usize> = (0..start.solutions.len()).collect();
+        let batch = track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &all, &opts)
+            .expect("Heun + adaptive is supported");
+        assert_eq!(batch.len(), all.len());
+        let (mut both, mut same) = (0, 0);
+        for (i, r) in batch.iter().enumerate() {
+            if let (Ok(a), Ok(b)) = (r, track(&h, &start.solutions[i], &opts)) {
+                both += 1;
+                assert!(a.residual < 1e-8, "seed {seed} path {i}: residual {:e}", a.residual);
+                if relative_distance(&a.x, &b.x) < 1e-8 {
+                    same += 1;
+                }
+            }
+        }
+        println!("seed {seed}: {both} paths tracked by both, {same} with the same end point");
+        assert!(both >= 136, "seed {seed}: {both}");
+        assert!(same + 3 >= both, "seed {seed}: {same} of {both} agree");
+        let subset = [7usize, 3, 139, 64, 0, 99];
+        let again = track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &subset, &opts).unwrap();
+        for (k, &i) in subset.iter().enumerate() {
+            assert_eq!(again[k], batch[i], "seed {seed} path {i}: depends on its batch");
+        }
+
+        let one_by_one = AllRootsOptions { batch: false, ..AllRootsOptions::default() };
+        let (a, b) = (solve_grps7(&target, &AllRootsOptions::default()), solve_grps7(&target, &one_by_one));
+        assert_eq!(a.real.len(), b.real.len(), "seed {seed}: real solution counts");
+        for s in &a.real {
+            let (_, d) = b.closest_real(&s.x).unwrap();
+            assert!(d < 1e-8, "seed {seed}: a real solution of the batch run is missing ({d:e})");
+        }
+    }
+}

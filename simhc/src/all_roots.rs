@@ -280,9 +280,9 @@ where
     };
     match lanes {
         Some(system) => {
-            let batch = |indices: &[usize]| -> Vec<PathResult<N>> {
+            let batch = |indices: &[usize], opts: &TrackerOptions| -> Vec<PathResult<N>> {
                 let run = |part: &[usize]| {
-                    track_batch::<P, _, N, NP, NC>(&system, &h, &start.solutions, part, &options.tracker)
+                    track_batch::<P, _, N, NP, NC>(&system, &h, &start.solutions, part, opts)
                         .unwrap_or_default()
                 };
                 if options.parallel {
@@ -308,13 +308,16 @@ fn solve_along<P, H, const N: usize, const NP: usize>(
     start: &StartSystem<N, NP>,
     target: &SVector<f64, NP>,
     options: &AllRootsOptions,
-    batch: Option<&(dyn Fn(&[usize]) -> Vec<PathResult<N>> + Sync)>,
+    batch: Option<&(dyn Fn(&[usize], &TrackerOptions) -> Vec<PathResult<N>> + Sync)>,
 ) -> AllRootsResult<N>
 where
     P: ParamDerivative<N, N, NP>,
     H: Homotopy<C, N, N> + Sync,
 {
     let track_all = |indices: &[usize], opts: &TrackerOptions| -> Vec<_> {
+        if let Some(track_lanes) = batch.filter(|_| batch_supported(opts)) {
+            return track_lanes(indices, opts);
+        }
         let one = |&i: &usize| track(h, &start.solutions[i], opts);
         if options.parallel {
             indices.par_iter().map(one).collect()
@@ -323,10 +326,7 @@ where
         }
     };
     let all: Vec<usize> = (0..start.solutions.len()).collect();
-    let mut results = match batch {
-        Some(track_lanes) => track_lanes(&all),
-        None => track_all(&all, &options.tracker),
-    };
+    let mut results = track_all(&all, &options.tracker);
     let mut retracked = 0;
     if let Some(strict) = options.retrack {
         let mut opts = strict;

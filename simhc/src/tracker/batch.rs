@@ -12,7 +12,7 @@
 //! Every request a path makes is the same operation: at its `(x, t)`, evaluate `H`, `J_x` and
 //! `dH/dt`, factor `J_x` and return the Newton update `J_x^-1 H` together with the tangent
 //! `-J_x^-1 dH/dt`. A path is a small state machine ([`Path`]) running the adaptive tracker of
-//! [`super::Tracker`] with the Heun predictor — same step rules (shared code in `step_size`),
+//! [`super::Tracker`] with the Heun or RK4 predictor — same step rules (shared code in `step_size`),
 //! same corrector decisions (shared [`super::corrector::apply_update`]) — one request at a time;
 //! a lane whose path ends takes the next start point. Lanes never mix, so a path's result does
 //! not depend on its lane or its neighbours (nor on the thread count when batches run in
@@ -293,8 +293,8 @@ where
 enum Phase {
     /// Tangent at the start point.
     Start,
-    /// Heun's second tangent, at the Euler point.
-    Stage,
+    /// A predictor stage's tangent: Heun's one at the Euler point, or RK4's three.
+    Stage(u8),
     /// A corrector update at `t1`.
     Correct,
     /// The final refinement at `t = 1`.
@@ -317,6 +317,9 @@ struct Path<const N: usize> {
     /// The step in progress: target time, step, predicted point / corrector iterate.
     t1: f64,
     h: f64,
+    /// RK4's second and third stage tangents.
+    k2: SVector<C, N>,
+    k3: SVector<C, N>,
     iterate: SVector<C, N>,
     moved: f64,
     settings: CorrectorSettings,
@@ -359,6 +362,8 @@ impl<const N: usize> Path<N> {
             phase: Phase::Start,
             t1: 0.0,
             h: 0.0,
+            k2: SVector::zeros(),
+            k3: SVector::zeros(),
             iterate: *x0,
             moved: 0.0,
             settings: CorrectorSettings {
@@ -385,9 +390,14 @@ impl<const N: usize> Path<N> {
         }
         self.t1 = if self.t + 1.05 * self.dt >= 1.0 { 1.0 } else { self.t + self.dt };
         self.h = self.t1 - self.t;
-        self.at = self.x + self.tangent * C::new(self.h, 0.0);
-        self.at_t = self.t1;
-        self.phase = Phase::Stage;
+        if o.predictor == Predictor::Rk4 {
+            self.at = self.x + self.tangent * C::new(0.5 * self.h, 0.0);
+            self.at_t = self.t + 0.5 * self.h;
+        } else {
+            self.at = self.x + self.tangent * C::new(self.h, 0.0);
+            self.at_t = self.t1;
+        }
+        self.phase = Phase::Stage(0);
         Next::Request
     }
 
@@ -418,11 +428,30 @@ impl<const N: usize> Path<N> {
                 self.tangent = *v;
                 self.begin_step(o)
             }
-            Phase::Stage => {
+            Phase::Stage(stage) => {
                 if let Some(tr) = trouble {
                     return self.reject(tr, None, o, a);
                 }
-                let xp = self.x + (self.tangent + v) * C::new(0.5 * self.h, 0.0);
+                let xp = match (o.predictor, stage) {
+                    (Predictor::Rk4, 0) => {
+                        self.k2 = *v;
+                        self.at = self.x + v * C::new(0.5 * self.h, 0.0);
+                        self.phase = Phase::Stage(1);
+                        return Next::Request;
+                    }
+                    (Predictor::Rk4, 1) => {
+                        self.k3 = *v;
+                        self.at = self.x + v * C::new(self.h, 0.0);
+                        self.at_t = self.t1;
+                        self.phase = Phase::Stage(2);
+                        return Next::Request;
+                    }
+                    (Predictor::Rk4, _) => {
+                        let sum = self.tangent + (self.k2 + self.k3) * C::new(2.0, 0.0) + v;
+                        self.x + sum * C::new(self.h / 6.0, 0.0)
+                    }
+                    _ => self.x + (self.tangent + v) * C::new(0.5 * self.h, 0.0),
+                };
                 if !finite(&xp) {
                     return self.reject(Trouble::NonFinite, None, o, a);
                 }
@@ -513,7 +542,7 @@ impl<const N: usize> Path<N> {
             return Next::Done(Err(TrackError::NonFinite { t: self.t }));
         }
         self.tangent = *v;
-        let f = step_size::grow_factor(a, Predictor::Heun.order(), &report, omega_before, after_rejection);
+        let f = step_size::grow_factor(a, o.predictor.order(), &report, omega_before, after_rejection);
         self.dt = (self.dt * f).min(a.max);
         self.begin_step(o)
     }
@@ -527,7 +556,7 @@ impl<const N: usize> Path<N> {
     ) -> Next<N> {
         self.stats.rejected_steps += 1;
         self.last_rejected = true;
-        self.dt *= step_size::shrink_factor(a, Predictor::Heun.order(), trouble, report, self.omega);
+        self.dt *= step_size::shrink_factor(a, o.predictor.order(), trouble, report, self.omega);
         if self.dt < a.min {
             let t = self.t;
             return Next::Done(Err(match trouble {
@@ -586,11 +615,11 @@ impl<const N: usize> Path<N> {
     }
 }
 
-/// Whether [`track_batch`] runs `options`: the adaptive tracker without drag steps and with the
-/// Heun predictor.
+/// Whether [`track_batch`] runs `options`: the adaptive tracker without drag steps, with the
+/// Heun or the RK4 predictor.
 pub fn batch_supported(options: &TrackerOptions) -> bool {
     matches!(options.step, StepControl::Adaptive(AdaptiveStep { drag: None, .. }))
-        && options.predictor == Predictor::Heun
+        && matches!(options.predictor, Predictor::Heun | Predictor::Rk4)
 }
 
 /// Tracks the start points `starts[i]` for every `i` in `indices` along `system`, [`LANES`] at a
@@ -679,4 +708,67 @@ where
         }
     }
     Some(results.into_iter().map(|r| r.unwrap_or(Err(TrackError::NonFinite { t: 0.0 }))).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::SMatrix;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn random_c(rng: &mut ChaCha8Rng) -> C {
+        C::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0))
+    }
+
+    #[test]
+    fn lane_elimination_matches_nalgebra_and_flags_singular_lanes() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        const N: usize = 8;
+        let mats: [SMatrix<C, N, N>; LANES] = std::array::from_fn(|_| SMatrix::from_fn(|_, _| random_c(&mut rng)));
+        let f: [SVector<C, N>; LANES] = std::array::from_fn(|_| SVector::from_fn(|_, _| random_c(&mut rng)));
+        let d: [SVector<C, N>; LANES] = std::array::from_fn(|_| SVector::from_fn(|_, _| random_c(&mut rng)));
+        let mut mats = mats;
+        // Lane 2: rank deficient (two equal rows); lane 3: a NaN entry.
+        let row = mats[2].row(1).into_owned();
+        mats[2].set_row(5, &row);
+        mats[3][(4, 4)] = C::new(f64::NAN, 0.0);
+        let mut a = [[C64x4::default(); N]; N];
+        let (mut fl, mut dl) = ([C64x4::default(); N], [C64x4::default(); N]);
+        for l in 0..LANES {
+            for i in 0..N {
+                for j in 0..N {
+                    a[i][j].set(l, mats[l][(i, j)]);
+                }
+                fl[i].set(l, f[l][i]);
+                dl[i].set(l, d[l][i]);
+            }
+        }
+        let status = solve_lanes(&mut a, &mut fl, &mut dl);
+        assert_eq!(status, [Factor::Ok, Factor::Ok, Factor::Singular, Factor::NonFinite]);
+        for l in 0..2 {
+            let lu = mats[l].lu();
+            let (xf, xd) = (lu.solve(&f[l]).unwrap(), lu.solve(&d[l]).unwrap());
+            let (gf, gd) = (lane_of(&fl, l), lane_of(&dl, l));
+            assert!((gf - xf).camax() < 1e-12 * xf.camax(), "lane {l}: {:e}", (gf - xf).camax());
+            assert!((gd - xd).camax() < 1e-12 * xd.camax(), "lane {l}: {:e}", (gd - xd).camax());
+        }
+    }
+
+    #[test]
+    fn horner_gives_value_and_derivative_per_lane() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let t = F64x4([0.0, 0.3, -1.2, 1.0]);
+        for len in 1..=6 {
+            let p: Vec<C> = (0..len).map(|_| random_c(&mut rng)).collect();
+            let (v, d) = horner(&p, t);
+            for l in 0..LANES {
+                let tl = t.0[l];
+                let value: C = p.iter().enumerate().map(|(k, c)| c * tl.powi(k as i32)).sum();
+                let slope: C = p.iter().enumerate().skip(1).map(|(k, c)| c * (k as f64 * tl.powi(k as i32 - 1))).sum();
+                assert!((v.get(l) - value).norm() < 1e-13, "len {len} lane {l}");
+                assert!((d.get(l) - slope).norm() < 1e-13, "len {len} lane {l}");
+            }
+        }
+    }
 }

@@ -302,13 +302,16 @@ where
 /// One path's outcome.
 type PathResult<const N: usize> = Result<crate::tracker::TrackResult<C, N>, TrackError>;
 
+/// Tracks the start solutions of the given indices with the given settings, in path lanes.
+type BatchTracking<'a, const N: usize> = dyn Fn(&[usize], &TrackerOptions) -> Vec<PathResult<N>> + Sync + 'a;
+
 /// Tracks all start solutions along `h` (sequentially or with rayon) and collects the result.
 fn solve_along<P, H, const N: usize, const NP: usize>(
     h: &H,
     start: &StartSystem<N, NP>,
     target: &SVector<f64, NP>,
     options: &AllRootsOptions,
-    batch: Option<&(dyn Fn(&[usize], &TrackerOptions) -> Vec<PathResult<N>> + Sync)>,
+    batch: Option<&BatchTracking<'_, N>>,
 ) -> AllRootsResult<N>
 where
     P: ParamDerivative<N, N, NP>,

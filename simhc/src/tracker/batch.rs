@@ -191,7 +191,9 @@ fn solve_lanes<const N: usize>(
                     best_mag = m;
                 }
             }
-            if !(best_mag > threshold[l]) && status[l] == Factor::Ok {
+            // Not above the threshold, NaN included.
+            let regular = best_mag.partial_cmp(&threshold[l]) == Some(std::cmp::Ordering::Greater);
+            if !regular && status[l] == Factor::Ok {
                 status[l] = Factor::Singular;
             }
             if best != k {
@@ -571,7 +573,7 @@ impl<const N: usize> Path<N> {
 
     /// At `t = 1`: refine to `final_tolerance` if needed (like [`super::Tracker`]'s `finish`).
     fn finish(&mut self, o: &TrackerOptions) -> Next<N> {
-        if !(self.accuracy <= o.final_tolerance) && o.final_newton_iterations > 0 {
+        if !reached(self.accuracy, o.final_tolerance) && o.final_newton_iterations > 0 {
             self.settings = CorrectorSettings {
                 max_iterations: o.final_newton_iterations,
                 tolerance: o.final_tolerance,
@@ -605,7 +607,7 @@ impl<const N: usize> Path<N> {
     }
 
     fn success(&mut self, o: &TrackerOptions) -> Next<N> {
-        if o.require_final_convergence && !(self.accuracy <= o.final_tolerance) {
+        if o.require_final_convergence && !reached(self.accuracy, o.final_tolerance) {
             return Next::Done(Err(TrackError::CorrectorDidNotConverge { t: 1.0 }));
         }
         if !self.x.iter().all(|z| z.re.is_finite() && z.im.is_finite()) {
@@ -613,6 +615,12 @@ impl<const N: usize> Path<N> {
         }
         Next::Done(Ok(TrackResult { x: self.x, t: 1.0, stats: self.stats, accuracy: self.accuracy, residual: f64::NAN }))
     }
+}
+
+/// Whether the estimated error `accuracy` (NaN: unknown) is within `tolerance`.
+#[inline]
+fn reached(accuracy: f64, tolerance: f64) -> bool {
+    accuracy <= tolerance
 }
 
 /// Whether [`track_batch`] runs `options`: the adaptive tracker without drag steps, with the
@@ -668,10 +676,7 @@ where
     let mut x = [C64x4::default(); N];
     let mut u = [C64x4::default(); N];
     let mut v = [C64x4::default(); N];
-    loop {
-        let Some(filler) = slots.iter().flatten().next().map(|(_, p)| (p.at, p.at_t)) else {
-            break;
-        };
+    while let Some(filler) = slots.iter().flatten().next().map(|(_, p)| (p.at, p.at_t)) {
         let mut t = F64x4::default();
         for (l, slot) in slots.iter().enumerate() {
             // Idle lanes repeat an active lane's request (finite, discarded).

@@ -359,3 +359,42 @@ fn batch_tracking_agrees_with_one_path_at_a_time() {
         }
     }
 }
+
+/// The batch tracker reports bad start points as typed errors in their slots (the other paths
+/// are unaffected), an exhausted step budget as `MaxSteps`, and declines settings it does not
+/// run (fixed steps, drag steps, Euler) with `None`.
+#[test]
+fn batch_tracker_reports_bad_input_per_path() {
+    use simhc::all_roots::{all_roots_tracker, CoefficientParameterHomotopy};
+    use simhc::homotopy::ParameterHomotopy;
+    use simhc::tracker::batch::{track_batch, LaneSystem};
+    use simhc::tracker::{Predictor, TrackError, TrackerOptions};
+    let start = grps7_start();
+    let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(11).unwrap();
+    let target = Grps7::params(&grps::rows_of::<7>(&scene.correspondences).unwrap());
+    let h = CoefficientParameterHomotopy::<Grps7, 84, { Grps7::NC }>::new::<8>(ParameterHomotopy::new(
+        start.params,
+        target.map(|v| C::new(v, 0.0)),
+    ))
+    .unwrap();
+    let system = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly()).unwrap();
+    let mut starts = start.solutions[..5].to_vec();
+    starts[1][3] = C::new(f64::NAN, 0.0);
+    starts[3][0] = C::new(1e12, 0.0);
+    let opts = all_roots_tracker();
+    let run = |idx: &[usize], o: &TrackerOptions| track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &starts, idx, o);
+    let r = run(&[0, 1, 2, 3, 4, 9], &opts).unwrap();
+    assert_eq!(r[1], Err(TrackError::NonFinite { t: 0.0 }));
+    assert_eq!(r[3], Err(TrackError::DivergedToInfinity { t: 0.0 }));
+    assert!(r[5].is_err(), "index out of range");
+    for k in [0, 2, 4] {
+        let ok = r[k].as_ref().expect("a regular start point is tracked");
+        assert_eq!(ok.t, 1.0);
+        assert!(ok.residual < 1e-8);
+    }
+    let tight = TrackerOptions { max_steps: 3, ..opts };
+    assert!(matches!(run(&[0], &tight).unwrap()[0], Err(TrackError::MaxSteps { .. })));
+    assert!(run(&[0], &TrackerOptions::paper(0.05)).is_none(), "fixed steps");
+    assert!(run(&[0], &TrackerOptions::single_path()).is_none(), "drag steps");
+    assert!(run(&[0], &TrackerOptions { predictor: Predictor::Euler, ..opts }).is_none());
+}

@@ -11,9 +11,10 @@
 //!
 //! Every request a path makes is the same operation: at its `(x, t)`, evaluate `H`, `J_x` and
 //! `dH/dt`, factor `J_x` and return the Newton update `J_x^-1 H` together with the tangent
-//! `-J_x^-1 dH/dt`. A path is a small state machine ([`Path`]) running the adaptive tracker of
-//! [`super::Tracker`] with the Heun or RK4 predictor — same step rules (shared code in `step_size`),
-//! same corrector decisions (shared [`super::corrector::apply_update`]) — one request at a time;
+//! `-J_x^-1 dH/dt`. A path is a small state machine (`Path`) running the adaptive tracker of
+//! [`super::Tracker`] with the Heun or RK4 predictor — same step rules (shared code in
+//! `step_size`), same corrector decisions (the corrector's shared `apply_update`) — one request
+//! at a time;
 //! a lane whose path ends takes the next start point. Lanes never mix, so a path's result does
 //! not depend on its lane or its neighbours (nor on the thread count when batches run in
 //! parallel). Differences from [`super::Tracker`]: the tangent after an accepted step uses

@@ -153,7 +153,7 @@ impl CorrectorReport {
 /// diverged), `false` to go on (the caller stops after `max_iterations` with
 /// `NotConverged`). `prev` carries `|dx|_w` of the previous update; `square`: Newton (not
 /// Gauss-Newton). Shared by [`correct`] and
-/// the batch tracker ([`super::batch`]).
+/// the batch tracker (`super::batch`).
 #[inline]
 pub(crate) fn apply_update<S: Scalar, const NX: usize>(
     x: &mut SVector<S, NX>,

@@ -1404,6 +1404,41 @@ pub mod grps {
             }
             ::simhc::lanes::dispatch(Job { x, r, f });
         }
+        /// The global equations (without coefficients) and their Jacobian rows, one path per lane.
+        #[inline(always)]
+        #[allow(clippy::all, unused_variables)]
+        fn __global_lanes<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            f: &mut [S; 1],
+            j: &mut [S; 8],
+        ) {
+            let x_q_0 = x[0];
+            let x_q_1 = x[1];
+            let x_q_2 = x[2];
+            let x_q_3 = x[3];
+            let k8: S = S::from_real(1.0);
+            let k21: S = S::from_real(0.0);
+            let t1 = x_q_0 * x_q_0;
+            let t3 = x_q_1 * x_q_1;
+            let t5 = x_q_2 * x_q_2;
+            let t7 = x_q_3 * x_q_3;
+            let t9 = -t1;
+            let t10 = t9 - t3;
+            let t11 = t10 - t5;
+            let t12 = t11 - t7;
+            let t13 = k8 + t12;
+            let t15 = -t13;
+            let t17 = x_q_0.scale(2.0);
+            let t18 = x_q_1.scale(2.0);
+            let t19 = x_q_2.scale(2.0);
+            let t20 = x_q_3.scale(2.0);
+            f[0] = t15;
+            j.fill(S::from_real(0.0));
+            j[0] = t17;
+            j[1] = t18;
+            j[2] = t19;
+            j[3] = t20;
+        }
     }
     /// `grps7`: 8 equations in 8 unknowns with 84 parameters (7 rows).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -9561,32 +9596,7 @@ pub mod grps {
             else {
                 return;
             };
-            let x_q_0 = x[0];
-            let x_q_1 = x[1];
-            let x_q_2 = x[2];
-            let x_q_3 = x[3];
-            let k8: S = S::from_real(1.0);
-            let k21: S = S::from_real(0.0);
-            let t1 = x_q_0 * x_q_0;
-            let t3 = x_q_1 * x_q_1;
-            let t5 = x_q_2 * x_q_2;
-            let t7 = x_q_3 * x_q_3;
-            let t9 = -t1;
-            let t10 = t9 - t3;
-            let t11 = t10 - t5;
-            let t12 = t11 - t7;
-            let t13 = k8 + t12;
-            let t15 = -t13;
-            let t17 = x_q_0.scale(2.0);
-            let t18 = x_q_1.scale(2.0);
-            let t19 = x_q_2.scale(2.0);
-            let t20 = x_q_3.scale(2.0);
-            f[0] = t15;
-            j.fill(S::from_real(0.0));
-            j[0] = t17;
-            j[1] = t18;
-            j[2] = t19;
-            j[3] = t20;
+            __SimhcRowKernels::__global_lanes(x, f, j);
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             7,
@@ -18898,32 +18908,7 @@ pub mod grps {
             else {
                 return;
             };
-            let x_q_0 = x[0];
-            let x_q_1 = x[1];
-            let x_q_2 = x[2];
-            let x_q_3 = x[3];
-            let k8: S = S::from_real(1.0);
-            let k21: S = S::from_real(0.0);
-            let t1 = x_q_0 * x_q_0;
-            let t3 = x_q_1 * x_q_1;
-            let t5 = x_q_2 * x_q_2;
-            let t7 = x_q_3 * x_q_3;
-            let t9 = -t1;
-            let t10 = t9 - t3;
-            let t11 = t10 - t5;
-            let t12 = t11 - t7;
-            let t13 = k8 + t12;
-            let t15 = -t13;
-            let t17 = x_q_0.scale(2.0);
-            let t18 = x_q_1.scale(2.0);
-            let t19 = x_q_2.scale(2.0);
-            let t20 = x_q_3.scale(2.0);
-            f[0] = t15;
-            j.fill(S::from_real(0.0));
-            j[0] = t17;
-            j[1] = t18;
-            j[2] = t19;
-            j[3] = t20;
+            __SimhcRowKernels::__global_lanes(x, f, j);
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             8,

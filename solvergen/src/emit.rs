@@ -604,6 +604,7 @@ impl RowKernels {
         // `coefficient_part_poly`: only when the global equations' linear part vanishes (no
         // coefficients outside the row blocks).
         let first_global = shape.rows * shape.epr;
+        let mut lane_kernel = quote!();
         let poly_fn = if split.linear[first_global..].iter().all(|p| p.is_zero()) {
             let (rows, nc1_t, epr, nx_t, nf_t) = (n(shape.rows), n(nc1), n(shape.epr), n(shape.nx), n(shape.nf));
             let lanes = quote!(<S as ::simhc::Scalar>::Lanes);
@@ -643,7 +644,8 @@ impl RowKernels {
                 (quote!(out), quote!(&'a mut ::simhc::__private::nalgebra::SVector<S, #nf_t>)),
             ];
             let wrapped = dispatched(&args, body);
-            let lanes_items = self.path_lanes(&split.equations, &split.vars, nc1);
+            let (kernel, lanes_items) = self.path_lanes(&split.equations, &split.vars, nc1);
+            lane_kernel = kernel;
             quote! {
                 #lanes_items
                 const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((#rows, #nc1_t));
@@ -660,15 +662,17 @@ impl RowKernels {
         } else {
             quote!()
         };
-        Some((quote!(#(#items)*), fused, residual, linear, poly_fn))
+        Some((quote!(#(#items)* #lane_kernel), fused, residual, linear, poly_fn))
     }
 }
 
 impl RowKernels {
     /// `CoefficientForm`'s path-lane items (`PATH_LANES`, `lanes_row`, `lanes_globals`): the
     /// coefficient-form row kernels and the (coefficient-free) global equations, generic over
-    /// `simhc::lanes::Lanes`, for callers that put one *path* in each lane.
-    fn path_lanes(&self, eqs: &[crate::poly::Poly], vars: &VarTable, nc1: usize) -> TokenStream {
+    /// `simhc::lanes::Lanes`, for callers that put one *path* in each lane. Returns the kernel
+    /// item of the global equations (shared by the instances, like the row kernels; empty
+    /// without global equations) and the trait items.
+    fn path_lanes(&self, eqs: &[crate::poly::Poly], vars: &VarTable, nc1: usize) -> (TokenStream, TokenStream) {
         let shape = self.shape;
         let first = shape.rows * shape.epr;
         let ng = shape.nf - first;
@@ -683,18 +687,27 @@ impl RowKernels {
                 j.push((n((g - first) * shape.nx + x).into_token_stream(), dag.polynomial(&eqs[g].diff(x as Var), vars)));
             }
         }
-        let globals = if ng == 0 {
-            quote!()
+        let (kernel, globals) = if ng == 0 {
+            (quote!(), quote!())
         } else {
             let body = render_with(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]);
-            quote! {
+            let kernel = quote! {
+                #[doc = " The global equations (without coefficients) and their Jacobian rows, one path per lane."]
+                #[inline(always)]
+                #[allow(clippy::all, unused_variables)]
+                fn __global_lanes<S: ::simhc::lanes::Lanes>(x: &[S; #nx], f: &mut [S; #ng_t], j: &mut [S; #ngj]) {
+                    #body
+                }
+            };
+            let call = quote! {
                 let (Ok(f), Ok(j)) = (<&mut [S; #ng_t]>::try_from(f), <&mut [S; #ngj]>::try_from(j)) else {
                     return;
                 };
-                #body
-            }
+                __SimhcRowKernels::__global_lanes(x, f, j);
+            };
+            (kernel, call)
         };
-        quote! {
+        let items = quote! {
             const PATH_LANES: ::core::option::Option<usize> = ::core::option::Option::Some(#epr);
             #[inline(always)]
             fn lanes_row<S: ::simhc::lanes::Lanes>(
@@ -722,7 +735,8 @@ impl RowKernels {
             fn lanes_globals<S: ::simhc::lanes::Lanes>(x: &[S; #nx], f: &mut [S], j: &mut [S]) {
                 #globals
             }
-        }
+        };
+        (kernel, items)
     }
 }
 

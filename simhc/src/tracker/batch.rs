@@ -24,6 +24,7 @@
 
 use super::corrector::{apply_update, max_abs, norm_weights, weighted_norm, CorrectorReport, CorrectorSettings};
 use super::options::{AdaptiveStep, Predictor, StepControl, TrackerOptions};
+use super::predictor::all_finite;
 use super::step_size;
 use super::{TrackError, TrackResult, TrackStats, Trouble, OMEGA_NOISE_FLOOR};
 use crate::homotopy::Homotopy;
@@ -346,7 +347,7 @@ impl<const N: usize> Path<N> {
         if !(dt > 0.0 && dt.is_finite()) {
             return Err(TrackError::StepSizeTooSmall { t: 0.0 });
         }
-        if !x0.iter().all(|z| z.re.is_finite() && z.im.is_finite()) {
+        if !all_finite(x0) {
             return Err(TrackError::NonFinite { t: 0.0 });
         }
         if max_abs(x0) > o.max_norm {
@@ -419,13 +420,12 @@ impl<const N: usize> Path<N> {
             Factor::Singular => Some(Trouble::Singular),
             Factor::NonFinite => Some(Trouble::NonFinite),
         };
-        let finite = |w: &SVector<C, N>| w.iter().all(|z| z.re.is_finite() && z.im.is_finite());
         match self.phase {
             Phase::Start => {
                 if let Some(tr) = trouble {
                     return Next::Done(Err(tr.into_error(0.0)));
                 }
-                if !finite(v) {
+                if !all_finite(v) {
                     return Next::Done(Err(TrackError::NonFinite { t: 0.0 }));
                 }
                 self.tangent = *v;
@@ -455,7 +455,7 @@ impl<const N: usize> Path<N> {
                     }
                     _ => self.x + (self.tangent + v) * C::new(0.5 * self.h, 0.0),
                 };
-                if !finite(&xp) {
+                if !all_finite(&xp) {
                     return self.reject(Trouble::NonFinite, None, o, a);
                 }
                 self.moved = weighted_norm(&(xp - self.x), &self.weights);
@@ -541,7 +541,7 @@ impl<const N: usize> Path<N> {
         if self.t >= 1.0 {
             return self.finish(o);
         }
-        if !v.iter().all(|z| z.re.is_finite() && z.im.is_finite()) {
+        if !all_finite(v) {
             return Next::Done(Err(TrackError::NonFinite { t: self.t }));
         }
         self.tangent = *v;
@@ -561,13 +561,7 @@ impl<const N: usize> Path<N> {
         self.last_rejected = true;
         self.dt *= step_size::shrink_factor(a, o.predictor.order(), trouble, report, self.omega);
         if self.dt < a.min {
-            let t = self.t;
-            return Next::Done(Err(match trouble {
-                Trouble::Singular => TrackError::SingularJacobian { t },
-                Trouble::NonFinite => TrackError::NonFinite { t },
-                Trouble::Diverged => TrackError::DivergedToInfinity { t },
-                _ => TrackError::StepSizeTooSmall { t },
-            }));
+            return Next::Done(Err(trouble.into_stall_error(self.t)));
         }
         self.begin_step(o)
     }
@@ -611,7 +605,7 @@ impl<const N: usize> Path<N> {
         if o.require_final_convergence && !reached(self.accuracy, o.final_tolerance) {
             return Next::Done(Err(TrackError::CorrectorDidNotConverge { t: 1.0 }));
         }
-        if !self.x.iter().all(|z| z.re.is_finite() && z.im.is_finite()) {
+        if !all_finite(&self.x) {
             return Next::Done(Err(TrackError::NonFinite { t: 1.0 }));
         }
         Next::Done(Ok(TrackResult { x: self.x, t: 1.0, stats: self.stats, accuracy: self.accuracy, residual: f64::NAN }))

@@ -167,6 +167,18 @@ pub(crate) enum Trouble {
 }
 
 impl Trouble {
+    /// The public code when steps shrank below the smallest step because of `self`.
+    #[inline]
+    pub(crate) fn into_stall_error(self, t: f64) -> TrackError {
+        match self {
+            Trouble::Singular => TrackError::SingularJacobian { t },
+            Trouble::NonFinite => TrackError::NonFinite { t },
+            // Steps of every size leave the max-norm ball: the path goes to infinity.
+            Trouble::Diverged => TrackError::DivergedToInfinity { t },
+            _ => TrackError::StepSizeTooSmall { t },
+        }
+    }
+
     /// The public code for a failure at `t`.
     #[inline]
     pub(crate) fn into_error(self, t: f64) -> TrackError {
@@ -587,14 +599,7 @@ where
         st.dt *= f;
         if st.dt < a.min {
             let t = st.t;
-            let e = match trouble {
-                Trouble::Singular => TrackError::SingularJacobian { t },
-                Trouble::NonFinite => TrackError::NonFinite { t },
-                // Steps of every size leave the max-norm ball: the path goes to infinity.
-                Trouble::Diverged => TrackError::DivergedToInfinity { t },
-                _ => TrackError::StepSizeTooSmall { t },
-            };
-            return self.set_failed(e);
+            return self.set_failed(trouble.into_stall_error(t));
         }
         self.state.status
     }

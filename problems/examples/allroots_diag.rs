@@ -15,7 +15,7 @@ use simhc::tracker::track;
 use simhc::{CoefficientForm, Problem};
 use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::grps::{self, Grps7};
-use simhc_problems::start_systems::{grps7_aligned_target, grps7_start};
+use simhc_problems::start_systems::{grps7_aligned_target, grps7_start, solve_grps7};
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -39,7 +39,7 @@ fn main() {
     let mut j = SMatrix::<C, 8, 8>::zeros();
     let mut fr = SVector::<f64, 8>::zeros();
     let mut jr = SMatrix::<f64, 8, 8>::zeros();
-    let n = 200_000;
+    let n = if std::env::var("BATCHONLY").is_ok() { 1 } else { 200_000 };
     println!("per evaluation (us):");
     let t = time_us(n, || Grps7::residual_jacobian(black_box(&x), black_box(&p), &mut f, &mut j));
     println!("  complex residual + Jacobian  {t:.3}");
@@ -88,7 +88,8 @@ fn main() {
         }
         let t0 = Instant::now();
         let (mut acc, mut rej, mut fact, mut newton, mut failed) = (0, 0, 0, 0, 0);
-        for x0 in &start.solutions {
+        let batch_only = std::env::var("BATCHONLY").is_ok();
+        for x0 in start.solutions.iter().filter(|_| !batch_only) {
             match track(&h, x0, &options.tracker) {
                 Ok(r) => {
                     acc += r.stats.accepted_steps;
@@ -103,6 +104,12 @@ fn main() {
         let k = start.solutions.len() as f64;
         if let Some(system) = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly()) {
             let all: Vec<usize> = (0..start.solutions.len()).collect();
+            if std::env::var("BATCHONLY").is_ok() {
+                for _ in 0..20 {
+                    black_box(track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &all, &options.tracker));
+                }
+                continue;
+            }
             let t1 = Instant::now();
             let paths = track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &all, &options.tracker);
             let batch_ms = t1.elapsed().as_secs_f64() * 1e3;
@@ -112,6 +119,16 @@ fn main() {
             println!(
                 "  seed {seed}: batch tracker (path lanes) {batch_ms:.1} ms; {:.1} operations per path; {failed} failed",
                 ops as f64 / k
+            );
+            let t2 = Instant::now();
+            let full = solve_grps7(&target, &options);
+            let full_ms = t2.elapsed().as_secs_f64() * 1e3;
+            let t3 = Instant::now();
+            let bare = solve_grps7(&target, &AllRootsOptions { retrack: None, ..options });
+            let bare_ms = t3.elapsed().as_secs_f64() * 1e3;
+            println!(
+                "  seed {seed}: solve_grps7 {full_ms:.1} ms ({} retracked, {} failed); without the repair {bare_ms:.1} ms ({} failed, {} duplicates)",
+                full.retracked, full.failed, bare.failed, bare.duplicates
             );
         }
         println!(

@@ -189,8 +189,17 @@ where
         let (cl, dcl) = op.scratch.split_at_mut(s.per_row);
         for r in 0..s.rows {
             let row = &s.c[r * s.per_row * s.terms..(r + 1) * s.per_row * s.terms];
-            for ((cm, dm), p) in cl.iter_mut().zip(dcl.iter_mut()).zip(row.chunks_exact(s.terms)) {
-                (*cm, *dm) = horner(p, &op.t);
+            // The degree is fixed per system: one branch per row, not per coefficient.
+            match s.terms {
+                1 => coefficients::<1, W, FMA>(row, &op.t, cl, dcl),
+                2 => coefficients::<2, W, FMA>(row, &op.t, cl, dcl),
+                3 => coefficients::<3, W, FMA>(row, &op.t, cl, dcl),
+                4 => coefficients::<4, W, FMA>(row, &op.t, cl, dcl),
+                k => {
+                    for ((cm, dm), p) in cl.iter_mut().zip(dcl.iter_mut()).zip(row.chunks_exact(k)) {
+                        (*cm, *dm) = horner(p, &op.t);
+                    }
+                }
             }
             let (e0, e1) = (r * s.epr, (r + 1) * s.epr);
             P::lanes_row(
@@ -208,6 +217,22 @@ where
         *op.u = f;
         for (vi, di) in op.v.iter_mut().zip(d) {
             *vi = -di;
+        }
+    }
+}
+
+/// `c(t)` and `c'(t)` of one row's coefficients, each a polynomial of `K` terms (`row`:
+/// coefficient-major) into `c` and `dc`.
+#[inline(always)]
+fn coefficients<const K: usize, const W: usize, const FMA: bool>(
+    row: &[C],
+    t: &[f64; W],
+    c: &mut [Wide<W, FMA>],
+    dc: &mut [Wide<W, FMA>],
+) {
+    for ((cm, dm), p) in c.iter_mut().zip(dc.iter_mut()).zip(row.chunks_exact(K)) {
+        if let Ok(p) = <&[C; K]>::try_from(p) {
+            (*cm, *dm) = horner(p, t);
         }
     }
 }

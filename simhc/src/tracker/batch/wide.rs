@@ -248,15 +248,14 @@ pub fn solve_lanes<const W: usize, const FMA: bool, const N: usize>(
             }
         }
         for l in 0..W {
+            // `max` drops NaN, so finiteness is checked per column.
+            if !sum[l].is_finite() {
+                status[l] = Factor::NonFinite;
+            }
             norm[l] = norm[l].max(sum[l]);
         }
     }
     let threshold: [f64; W] = std::array::from_fn(|l| norm[l] * N as f64 * f64::EPSILON);
-    for l in 0..W {
-        if !norm[l].is_finite() {
-            status[l] = Factor::NonFinite;
-        }
-    }
     let mut inv_diag = [Wide::<W, FMA>::default(); N];
     for k in 0..N {
         // The largest candidate below the diagonal, all lanes at once.

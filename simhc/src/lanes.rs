@@ -34,6 +34,28 @@ pub trait Lanes:
     fn get(&self, i: usize) -> Self::Scalar;
     /// Sets lane `i`.
     fn set(&mut self, i: usize, v: Self::Scalar);
+    /// `self * b + c`. Generated lane kernels call the fused forms (this and the three below)
+    /// where a product feeds one sum; the defaults are the two operations in that order, so
+    /// types without fused arithmetic compute exactly what the unfused code would.
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        self * b + c
+    }
+    /// `self * b - c`.
+    #[inline(always)]
+    fn mul_sub(self, b: Self, c: Self) -> Self {
+        self * b - c
+    }
+    /// `c - self * b`.
+    #[inline(always)]
+    fn neg_mul_add(self, b: Self, c: Self) -> Self {
+        c - self * b
+    }
+    /// `self * k + c` with a real `k`.
+    #[inline(always)]
+    fn scale_add(self, k: f64, c: Self) -> Self {
+        self.scale(k) + c
+    }
 }
 
 /// Four `f64`, one per lane (32-byte aligned).

@@ -57,6 +57,24 @@ fn f64_lit(c: f64) -> TokenStream {
 struct Renderer<'a> {
     dag: &'a Dag,
     vars: &'a VarTable,
+    /// Lane kernels (`S: simhc::lanes::Lanes`): a product or real scaling used once, by a sum
+    /// or difference, is emitted fused with it (`Lanes::mul_add`, `mul_sub`, `neg_mul_add`,
+    /// `scale_add`), so lane types with fused multiply-adds use them (path lanes); the trait's
+    /// defaults are the two operations in the unfused order.
+    fused: bool,
+}
+
+/// How a sum or difference absorbs one of its operands, a product used only there.
+#[derive(Clone, Copy)]
+enum Fusion {
+    /// `a * b + c` (either operand order of the sum).
+    MulAdd { a: NodeId, b: NodeId, c: NodeId },
+    /// `a * b - c`.
+    MulSub { a: NodeId, b: NodeId, c: NodeId },
+    /// `c - a * b`.
+    NegMulAdd { a: NodeId, b: NodeId, c: NodeId },
+    /// `k x + c` with a real constant `k`.
+    ScaleAdd { x: NodeId, k: f64, c: NodeId },
 }
 
 impl Renderer<'_> {
@@ -82,12 +100,87 @@ impl Renderer<'_> {
         quote!(#ident)
     }
 
+    /// For lane kernels: which sums and differences absorb a product (or real scaling) used
+    /// only by them, and which products are absorbed (not emitted). A product that is an
+    /// output, or used twice, stays.
+    fn fusions(&self, outputs: &[NodeId], live: &[bool]) -> (Vec<Option<Fusion>>, Vec<bool>) {
+        let nodes = &self.dag.nodes;
+        let mut uses = vec![0usize; nodes.len()];
+        for &o in outputs {
+            uses[o.0 as usize] += 2;
+        }
+        for (i, node) in nodes.iter().enumerate() {
+            if !live[i] {
+                continue;
+            }
+            match node {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+                    uses[a.0 as usize] += 1;
+                    uses[b.0 as usize] += 1;
+                }
+                Node::Neg(a) => uses[a.0 as usize] += 1,
+                _ => {}
+            }
+        }
+        let mut fusions = vec![None; nodes.len()];
+        let mut absorbed = vec![false; nodes.len()];
+        // A product used once: its factors, or (real constant, other factor) for a scaling.
+        let product = |id: NodeId, absorbed: &[bool]| -> Option<(NodeId, NodeId, Option<f64>)> {
+            let i = id.0 as usize;
+            if uses[i] != 1 || absorbed[i] {
+                return None;
+            }
+            match nodes[i] {
+                Node::Mul(a, b) => match (self.dag.const_value(a), self.dag.const_value(b)) {
+                    (Some(k), None) => Some((b, a, Some(k))),
+                    (None, Some(k)) => Some((a, b, Some(k))),
+                    (None, None) => Some((a, b, None)),
+                    (Some(_), Some(_)) => None,
+                },
+                _ => None,
+            }
+        };
+        for (i, node) in nodes.iter().enumerate() {
+            if !live[i] {
+                continue;
+            }
+            let fusion = match *node {
+                Node::Add(a, b) => match (product(a, &absorbed), product(b, &absorbed)) {
+                    (Some(p), _) => Some((a, p, b, false)),
+                    (None, Some(p)) => Some((b, p, a, false)),
+                    _ => None,
+                },
+                // `p - c` with a full product `p`, or `c - p` (a product or a scaling).
+                Node::Sub(a, b) => match (product(a, &absorbed), product(b, &absorbed)) {
+                    (Some(p @ (_, _, None)), _) => Some((a, p, b, true)),
+                    (_, Some(p)) => Some((b, p, a, false)),
+                    _ => None,
+                },
+                _ => None,
+            };
+            let Some((pid, (x, y, k), c, product_first)) = fusion else {
+                continue;
+            };
+            let negate = matches!(node, Node::Sub(..)) && !product_first;
+            absorbed[pid.0 as usize] = true;
+            fusions[i] = Some(match (k, product_first, negate) {
+                (Some(k), _, true) => Fusion::ScaleAdd { x, k: -k, c },
+                (Some(k), _, false) => Fusion::ScaleAdd { x, k, c },
+                (None, true, _) => Fusion::MulSub { a: x, b: y, c },
+                (None, false, true) => Fusion::NegMulAdd { a: x, b: y, c },
+                (None, false, false) => Fusion::MulAdd { a: x, b: y, c },
+            });
+        }
+        (fusions, absorbed)
+    }
+
     /// Loads of used leaves followed by one `let` per live interior node. A product with a
     /// constant is emitted as `x.scale(c)` (real scaling: 2 multiplications in complex
     /// arithmetic instead of a full complex product); constants are loaded only where they
     /// are used otherwise.
     fn body(&self, outputs: &[NodeId]) -> TokenStream {
         let live = self.dag.reachable(outputs);
+        let (fusions, absorbed) = if self.fused { self.fusions(outputs, &live) } else { (Vec::new(), Vec::new()) };
         let mut const_loaded = vec![false; self.dag.nodes.len()];
         for &o in outputs {
             const_loaded[o.0 as usize] = true;
@@ -107,10 +200,33 @@ impl Renderer<'_> {
         let mut loads = Vec::new();
         let mut lets = Vec::new();
         for (i, node) in self.dag.nodes.iter().enumerate() {
-            if !live[i] {
+            if !live[i] || absorbed.get(i).copied().unwrap_or(false) {
                 continue;
             }
             let id = NodeId(i as u32);
+            if let Some(Some(fusion)) = fusions.get(i) {
+                let t = format_ident!("t{}", id.0);
+                let l = quote!(::simhc::lanes::Lanes);
+                lets.push(match *fusion {
+                    Fusion::MulAdd { a, b, c } => {
+                        let (a, b, c) = (self.name(a), self.name(b), self.name(c));
+                        quote!(let #t = #l::mul_add(#a, #b, #c);)
+                    }
+                    Fusion::MulSub { a, b, c } => {
+                        let (a, b, c) = (self.name(a), self.name(b), self.name(c));
+                        quote!(let #t = #l::mul_sub(#a, #b, #c);)
+                    }
+                    Fusion::NegMulAdd { a, b, c } => {
+                        let (a, b, c) = (self.name(a), self.name(b), self.name(c));
+                        quote!(let #t = #l::neg_mul_add(#a, #b, #c);)
+                    }
+                    Fusion::ScaleAdd { x, k, c } => {
+                        let (x, k, c) = (self.name(x), f64_lit(k), self.name(c));
+                        quote!(let #t = #l::scale_add(#x, #k, #c);)
+                    }
+                });
+                continue;
+            }
             match node {
                 Node::X(k) | Node::P(k) | Node::Dp(k) | Node::C(k) => {
                     let ident = self.leaf_ident(node);
@@ -505,10 +621,10 @@ impl RowKernels {
 
         let mut dag = Dag::default();
         let (f, _) = row_outputs(&mut dag, &one.equations, &one.vars, shape, false);
-        let kernel_residual = render_with(&dag, &one.vars, &[(quote!(f), &f)]);
+        let kernel_residual = render_lanes(&dag, &one.vars, &[(quote!(f), &f)]);
         let mut dag = Dag::default();
         let (f, j) = row_outputs(&mut dag, &one.equations, &one.vars, shape, true);
-        let kernel_fused = render_with(&dag, &one.vars, &[(quote!(f), &f), (quote!(j), &j)]);
+        let kernel_fused = render_lanes(&dag, &one.vars, &[(quote!(f), &f), (quote!(j), &j)]);
         let kernel_residual = rename_row_input(kernel_residual, "p");
         let kernel_fused = rename_row_input(kernel_fused, "p");
 
@@ -554,13 +670,13 @@ impl RowKernels {
         let vars = &one_split.vars;
         let mut dag = Dag::default();
         let (f, j) = row_outputs(&mut dag, &one_split.equations, vars, shape, true);
-        let k_fused = rename_row_input(render_with(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]), "c");
+        let k_fused = rename_row_input(render_lanes(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]), "c");
         let mut dag = Dag::default();
         let (f, _) = row_outputs(&mut dag, &one_split.equations, vars, shape, false);
-        let k_residual = rename_row_input(render_with(&dag, vars, &[(quote!(f), &f)]), "c");
+        let k_residual = rename_row_input(render_lanes(&dag, vars, &[(quote!(f), &f)]), "c");
         let mut dag = Dag::default();
         let (f, _) = row_outputs(&mut dag, &one_split.linear, vars, shape, false);
-        let k_linear = rename_row_input(render_with(&dag, vars, &[(quote!(f), &f)]), "c");
+        let k_linear = rename_row_input(render_lanes(&dag, vars, &[(quote!(f), &f)]), "c");
 
         let lp = |kernel: &str, src: TokenStream, with_j: bool, f_out: TokenStream, j_out: Option<TokenStream>| {
             row_loop(shape, kernel, src, nc1, nc1, with_j, Some(f_out), j_out)
@@ -690,7 +806,7 @@ impl RowKernels {
         let (kernel, globals) = if ng == 0 {
             (quote!(), quote!())
         } else {
-            let body = render_with(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]);
+            let body = render_lanes(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]);
             let kernel = quote! {
                 #[doc = " The global equations (without coefficients) and their Jacobian rows, one path per lane."]
                 #[inline(always)]
@@ -1177,7 +1293,15 @@ fn render(dag: &Dag, inst: &Instance, outputs: &[(TokenStream, &Vec<(TokenStream
 }
 
 fn render_with(dag: &Dag, vars: &VarTable, outputs: &[(TokenStream, &Vec<(TokenStream, NodeId)>)]) -> TokenStream {
-    let r = Renderer { dag, vars };
+    render_body(Renderer { dag, vars, fused: false }, outputs)
+}
+
+/// [`render_with`] for a lane kernel (`S: simhc::lanes::Lanes`), with fused products.
+fn render_lanes(dag: &Dag, vars: &VarTable, outputs: &[(TokenStream, &Vec<(TokenStream, NodeId)>)]) -> TokenStream {
+    render_body(Renderer { dag, vars, fused: true }, outputs)
+}
+
+fn render_body(r: Renderer<'_>, outputs: &[(TokenStream, &Vec<(TokenStream, NodeId)>)]) -> TokenStream {
     let ids: Vec<NodeId> = outputs.iter().flat_map(|(_, v)| v.iter().map(|(_, id)| *id)).collect();
     let body = r.body(&ids);
     let assigns = outputs.iter().map(|(target, entries)| assign_dense(&r, target.clone(), entries));

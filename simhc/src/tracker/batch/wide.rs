@@ -121,6 +121,55 @@ impl<const W: usize, const FMA: bool> Lanes for Wide<W, FMA> {
         self.re[i] = v.re;
         self.im[i] = v.im;
     }
+    #[inline(always)]
+    fn mul_add(self, b: Self, c: Self) -> Self {
+        if !FMA {
+            // Unfused: the trait's order (what unfused generated code computes).
+            return self * b + c;
+        }
+        let mut out = c;
+        for l in 0..W {
+            let (xr, xi, yr, yi) = (self.re[l], self.im[l], b.re[l], b.im[l]);
+            out.re[l] = madd::<FMA>(xr, yr, madd::<FMA>(-xi, yi, c.re[l]));
+            out.im[l] = madd::<FMA>(xr, yi, madd::<FMA>(xi, yr, c.im[l]));
+        }
+        out
+    }
+    #[inline(always)]
+    fn mul_sub(self, b: Self, c: Self) -> Self {
+        if !FMA {
+            // Unfused: the trait's order (what unfused generated code computes).
+            return self * b - c;
+        }
+        let mut out = c;
+        for l in 0..W {
+            let (xr, xi, yr, yi) = (self.re[l], self.im[l], b.re[l], b.im[l]);
+            out.re[l] = madd::<FMA>(xr, yr, madd::<FMA>(-xi, yi, -c.re[l]));
+            out.im[l] = madd::<FMA>(xr, yi, madd::<FMA>(xi, yr, -c.im[l]));
+        }
+        out
+    }
+    #[inline(always)]
+    fn neg_mul_add(self, b: Self, c: Self) -> Self {
+        if !FMA {
+            // Unfused: the trait's order (what unfused generated code computes).
+            return c - self * b;
+        }
+        c.minus_product(self, b)
+    }
+    #[inline(always)]
+    fn scale_add(self, k: f64, c: Self) -> Self {
+        if !FMA {
+            // Unfused: the trait's order (what unfused generated code computes).
+            return self.scale(k) + c;
+        }
+        let mut out = c;
+        for l in 0..W {
+            out.re[l] = madd::<FMA>(self.re[l], k, c.re[l]);
+            out.im[l] = madd::<FMA>(self.im[l], k, c.im[l]);
+        }
+        out
+    }
 }
 
 impl<const W: usize, const FMA: bool> Wide<W, FMA> {
@@ -331,7 +380,7 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
 
     fn random_c(rng: &mut ChaCha8Rng) -> C {
-        C::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0))
+        C::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0))
     }
 
     fn lane_of<const W: usize, const FMA: bool, const N: usize>(v: &[Wide<W, FMA>; N], l: usize) -> SVector<C, N> {
@@ -411,6 +460,14 @@ mod tests {
             assert_eq!((a - b).get(l), x - y);
             assert_eq!((-a).get(l), -x);
             assert_eq!(a.scale(0.25).get(l), x * 0.25);
+            let tol = 8.0 * f64::EPSILON * (x.norm() * y.norm() + x.norm() + y.norm());
+            assert!((a.mul_add(b, a).get(l) - (x * y + x)).norm() <= tol);
+            assert!((a.mul_sub(b, a).get(l) - (x * y - x)).norm() <= tol);
+            assert!((a.neg_mul_add(b, a).get(l) - (x - x * y)).norm() <= tol);
+            assert!((a.scale_add(-1.5, b).get(l) - (x * -1.5 + y)).norm() <= tol);
+            let (pa, pb) = (plain(a), plain(b));
+            assert_eq!(pa.mul_add(pb, pa).get(l), x * y + x);
+            assert_eq!(pa.neg_mul_add(pb, pa).get(l), x - x * y);
         }
     }
 

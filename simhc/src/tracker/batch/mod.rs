@@ -1,11 +1,11 @@
-//! Batch tracking: [`LANES`] paths of a coefficient-parameter homotopy at once, one path per
-//! SIMD lane ([`C64x4`]).
+//! Batch tracking: several paths of a coefficient-parameter homotopy at once, one path per
+//! SIMD lane (`W` = 8 with AVX-512, 4 with AVX2 or the baseline; [`LaneIsa`]).
 //!
 //! Why: with row lanes ([`crate::lanes`]) only the row equations run in SIMD; the parameter
 //! gathering, the global equations, the LU and the solves stay scalar, and 7 rows fill 8 lanes.
 //! With one *path* per lane every part of a step is element-wise across lanes: the coefficients
 //! `c(t)` at each path's own `t`, the generated row kernels, the global equations, Gaussian
-//! elimination with partial pivoting (per lane) and the solves. That is the all-roots
+//! elimination (threshold pivoting per lane, `wide`) and the solves. That is the all-roots
 //! situation: many independent paths of the same homotopy (HomotopyContinuation.jl and GPU-HC
 //! track paths in parallel for the same reason).
 //!
@@ -19,8 +19,9 @@
 //! not depend on its lane or its neighbours (nor on the thread count when batches run in
 //! parallel). Differences from [`super::Tracker`]: the tangent after an accepted step uses
 //! `dH/dt` at the last corrector iterate (within the corrector's last update of the accepted
-//! point) instead of at the accepted point, and all arithmetic is the path-lane code's, so end
-//! points agree to rounding, not bit for bit.
+//! point) instead of at the accepted point, and all arithmetic is the path-lane code's (fused
+//! multiply-adds where the CPU has them, threshold pivoting), so end points agree to rounding,
+//! not bit for bit.
 
 use super::corrector::{apply_update, max_abs, norm_weights, weighted_norm, CorrectorReport, CorrectorSettings};
 use super::options::{AdaptiveStep, Predictor, StepControl, TrackerOptions};

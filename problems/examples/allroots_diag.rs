@@ -73,6 +73,13 @@ fn main() {
             continue;
         };
         if seed == 0 {
+            let poly = h.coefficient_poly();
+            let degree = |i: usize| (0..poly.len()).rev().find(|&k| poly[k][i].norm() > 0.0).unwrap_or(0);
+            let mut by_degree = [0usize; 8];
+            for i in 0..Grps7::NC {
+                by_degree[degree(i).min(7)] += 1;
+            }
+            println!("  coefficients by degree in t (0, 1, 2, ...): {:?}", &by_degree[..poly.len()]);
             let (x0, t) = (start.solutions[0], 0.37);
             let mut hv = SVector::<C, 8>::zeros();
             let mut hj = SMatrix::<C, 8, 8>::zeros();

@@ -14,7 +14,8 @@
 //! ```
 //!
 //! Timing of the all-roots solvers from the shipped start systems (noise-free scenes, ground
-//! truth among the real solutions, median and mean wall time per solve, 1 thread and rayon):
+//! truth among the real solutions, median and mean wall time per solve, 1 thread and rayon;
+//! GRPS7 also on one thread with each narrower lane instruction set this CPU runs):
 //!
 //! ```sh
 //! cargo run --release -p simhc-problems --example monodromy -- bench 200   # 200 trials each
@@ -129,15 +130,22 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// All-roots timing on `trials` noise-free scenes per problem (see the module docs).
 fn bench(trials: u64) {
     use simhc::all_roots::AllRootsOptions;
+    use simhc::tracker::batch::LaneIsa;
     use simhc_problems::start_systems::{solve_grps7, solve_upnp};
     use simhc_problems::upnp::{self, geometry::upnp_cost_matrix, scene::UpnpSceneConfig};
     use std::time::Instant;
-    for parallel in [false, true] {
+    // The default (widest instruction set, 1 and 2 threads), then GRPS7 on one thread with each
+    // narrower instruction set this CPU runs.
+    let isas = LaneIsa::ALL.into_iter().filter(|isa| isa.available()).skip(1);
+    let runs = [(false, None), (true, None)].into_iter().chain(isas.map(|isa| (false, Some(isa))));
+    for (parallel, lane_isa) in runs {
         let options = AllRootsOptions {
             parallel,
+            lane_isa,
             ..AllRootsOptions::default()
         };
         let threads = if parallel { rayon_threads() } else { 1 };
+        let isa = lane_isa.unwrap_or_else(LaneIsa::detect);
         // GRPS7.
         let (mut times, mut found, mut paths, mut failed, mut retracked) = (Vec::new(), 0, 0, 0, 0);
         for seed in 0..trials {
@@ -158,7 +166,7 @@ fn bench(trials: u64) {
             retracked += res.retracked;
         }
         println!(
-            "grps7 all-roots ({threads} thread{}): ground truth found {found}/{trials}, median {:.2} ms, mean {:.2} ms per solve ({} paths, {:.2} failed, {:.2} re-tracked per solve)",
+            "grps7 all-roots ({threads} thread{}, {isa:?} lanes): ground truth found {found}/{trials}, median {:.2} ms, mean {:.2} ms per solve ({} paths, {:.2} failed, {:.2} re-tracked per solve)",
             if threads == 1 { "" } else { "s" },
             median(times.clone()),
             times.iter().sum::<f64>() / times.len() as f64,
@@ -166,7 +174,10 @@ fn bench(trials: u64) {
             failed as f64 / trials as f64,
             retracked as f64 / trials as f64,
         );
-        // UPnP (noise-free: the global minimum is the ground truth).
+        if lane_isa.is_some() {
+            continue;
+        }
+        // UPnP (noise-free: the global minimum is the ground truth; no path lanes).
         let (mut times, mut found) = (Vec::new(), 0);
         for seed in 0..trials {
             let scene = UpnpSceneConfig {

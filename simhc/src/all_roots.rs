@@ -18,7 +18,7 @@
 
 use crate::homotopy::{real_if_close, to_complex, Homotopy, ParameterHomotopy};
 use crate::monodromy::{relative_distance, SignFlip, C};
-use crate::tracker::batch::{batch_supported, track_batch, LaneSystem};
+use crate::tracker::batch::{batch_supported, track_batch_with, LaneIsa, LaneSystem};
 use crate::tracker::{
     newton, track, AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackError, TrackStats,
     TrackerOptions,
@@ -79,6 +79,9 @@ pub struct AllRootsOptions {
     /// ([`CoefficientForm::PATH_LANES`], via [`solve_all_fast`]) and the tracker settings allow
     /// it ([`batch_supported`]); otherwise, and with `false`, one path at a time. Default `true`.
     pub batch: bool,
+    /// The instruction set of the batch tracker ([`LaneIsa`]); `None` (default): the widest
+    /// this CPU runs. One this CPU does not run tracks one path at a time.
+    pub lane_isa: Option<LaneIsa>,
     /// Path-jump repair: paths that failed or whose end points coincide with another path's
     /// (relative distance below `duplicate_tolerance`, modulo the symmetry) are tracked again
     /// with these stricter settings, up to `retrack_rounds` times (each round halves the largest
@@ -128,6 +131,7 @@ impl Default for AllRootsOptions {
             polish_iterations: 2,
             parallel: false,
             batch: true,
+            lane_isa: None,
             retrack: Some(strict_tracker()),
             retrack_rounds: 2,
             duplicate_tolerance: 1e-8,
@@ -273,7 +277,8 @@ where
     let Some(h) = CoefficientParameterHomotopy::<P, NP, NC>::new::<N>(base) else {
         return solve_along::<P, _, N, NP>(&base, start, target, options, None);
     };
-    let lanes = if options.batch && batch_supported(&options.tracker) {
+    let isa = options.lane_isa.unwrap_or_else(LaneIsa::detect);
+    let lanes = if options.batch && batch_supported(&options.tracker) && isa.available() {
         LaneSystem::<P, N, NC>::new::<NP>(h.coefficient_poly())
     } else {
         None
@@ -282,7 +287,7 @@ where
         Some(system) => {
             let batch = |indices: &[usize], opts: &TrackerOptions| -> Vec<PathResult<N>> {
                 let run = |part: &[usize]| {
-                    track_batch::<P, _, N, NP, NC>(&system, &h, &start.solutions, part, opts)
+                    track_batch_with::<P, _, N, NP, NC>(isa, &system, &h, &start.solutions, part, opts)
                         .unwrap_or_default()
                 };
                 if options.parallel {

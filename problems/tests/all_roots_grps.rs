@@ -361,12 +361,17 @@ fn batch_tracking_agrees_with_one_path_at_a_time() {
             }
         }
 
+        // The solver with one path at a time, and with each instruction set forced.
+        let a = solve_grps7(&target, &AllRootsOptions::default());
         let one_by_one = AllRootsOptions { batch: false, ..AllRootsOptions::default() };
-        let (a, b) = (solve_grps7(&target, &AllRootsOptions::default()), solve_grps7(&target, &one_by_one));
-        assert_eq!(a.real.len(), b.real.len(), "seed {seed}: real solution counts");
-        for s in &a.real {
-            let (_, d) = b.closest_real(&s.x).unwrap();
-            assert!(d < 1e-8, "seed {seed}: a real solution of the batch run is missing ({d:e})");
+        let forced = isas.iter().map(|&isa| AllRootsOptions { lane_isa: Some(isa), ..AllRootsOptions::default() });
+        for (k, options) in std::iter::once(one_by_one).chain(forced).enumerate() {
+            let b = solve_grps7(&target, &options);
+            assert_eq!(a.real.len(), b.real.len(), "seed {seed} run {k}: real solution counts");
+            for s in &a.real {
+                let (_, d) = b.closest_real(&s.x).unwrap();
+                assert!(d < 1e-8, "seed {seed} run {k}: a real solution of the default run is missing ({d:e})");
+            }
         }
     }
 }

@@ -402,7 +402,7 @@ fn batch_tracker_reports_bad_input_per_path() {
     let r = run(&[0, 1, 2, 3, 4, 9], &opts).unwrap();
     assert_eq!(r[1], Err(TrackError::NonFinite { t: 0.0 }));
     assert_eq!(r[3], Err(TrackError::DivergedToInfinity { t: 0.0 }));
-    assert!(r[5].is_err(), "index out of range");
+    assert_eq!(r[5], Err(TrackError::NoStartPoint { index: 9, available: 5 }));
     for k in [0, 2, 4] {
         let ok = r[k].as_ref().expect("a regular start point is tracked");
         assert_eq!(ok.t, 1.0);

@@ -140,6 +140,15 @@ pub enum TrackError {
         /// Last accepted `t`.
         t: f64,
     },
+    /// A batch request named a start point that does not exist
+    /// ([`batch::track_batch`]'s `indices` beyond its `starts`).
+    #[error("no start point with index {index} ({available} given)")]
+    NoStartPoint {
+        /// The requested index.
+        index: usize,
+        /// How many start points there are.
+        available: usize,
+    },
 }
 
 impl TrackError {
@@ -152,6 +161,7 @@ impl TrackError {
             | TrackError::MaxSteps { t }
             | TrackError::CorrectorDidNotConverge { t }
             | TrackError::NonFinite { t } => t,
+            TrackError::NoStartPoint { .. } => 0.0,
         }
     }
 }

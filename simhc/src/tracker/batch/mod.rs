@@ -639,7 +639,9 @@ where
         while *next < indices.len() {
             let k = *next;
             *next += 1;
-            match starts.get(indices[k]).ok_or(TrackError::NonFinite { t: 0.0 }).and_then(|x0| Path::start(x0, options, &a)) {
+            let index = indices[k];
+            let missing = TrackError::NoStartPoint { index, available: starts.len() };
+            match starts.get(index).ok_or(missing).and_then(|x0| Path::start(x0, options, &a)) {
                 Ok(p) => {
                     *slot = Some((k, p));
                     return;

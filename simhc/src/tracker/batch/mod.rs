@@ -125,11 +125,16 @@ impl LaneIsa {
         }
     }
 
+    /// Paths per operation with AVX-512 (one register per part).
+    const WIDE: usize = 8;
+    /// Paths per operation with AVX2 and the baseline.
+    const NARROW: usize = 4;
+
     /// Paths per operation.
     pub fn width(self) -> usize {
         match self {
-            LaneIsa::Avx512 => 8,
-            LaneIsa::Avx2 | LaneIsa::Baseline => 4,
+            LaneIsa::Avx512 => Self::WIDE,
+            LaneIsa::Avx2 | LaneIsa::Baseline => Self::NARROW,
         }
     }
 
@@ -611,9 +616,9 @@ where
     };
     let run = (system, h, starts, indices, options, &a, isa);
     Some(match isa {
-        LaneIsa::Avx512 => track_lanes::<P, H, N, NP, NC, 8, true>(run),
-        LaneIsa::Avx2 => track_lanes::<P, H, N, NP, NC, 4, true>(run),
-        LaneIsa::Baseline => track_lanes::<P, H, N, NP, NC, 4, false>(run),
+        LaneIsa::Avx512 => track_lanes::<P, H, N, NP, NC, { LaneIsa::WIDE }, true>(run),
+        LaneIsa::Avx2 => track_lanes::<P, H, N, NP, NC, { LaneIsa::NARROW }, true>(run),
+        LaneIsa::Baseline => track_lanes::<P, H, N, NP, NC, { LaneIsa::NARROW }, false>(run),
     })
 }
 

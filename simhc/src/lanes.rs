@@ -8,7 +8,7 @@
 //! with split real and imaginary parts, so a complex product is six lane-wise operations and
 //! never a shuffle); the element-wise loops compile to vector instructions. Generated row
 //! kernels are generic over [`Lanes`]; [`crate::Scalar::Lanes`] names the lane type of a scalar,
-//! and [`gather_rows`] / [`scatter_rows`] move rows between the packed parameter vector and the
+//! and [`gather_rows`] / [`scatter_residual`] / [`scatter_jacobian`] move rows between the packed parameter vector and the
 //! lanes.
 
 use crate::Scalar;

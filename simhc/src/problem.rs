@@ -105,10 +105,10 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
     /// followed by `NF - rows * epr` global equations without coefficients.
     ///
     /// Path lanes put one *path* (its own unknowns and coefficients) in each lane, so that
-    /// [`crate::tracker::batch`] tracks [`crate::lanes::LANES`] paths at once.
+    /// [`crate::tracker::batch`] tracks as many paths at once as the lane type `L` has lanes.
     const PATH_LANES: Option<usize> = None;
 
-    /// Row equations of one row for `LANES` paths: from the unknowns `x`, the row's
+    /// Row equations of one row, one path per lane of `L`: from the unknowns `x`, the row's
     /// coefficients `c` and coefficient derivatives `dc` (`per_row` each), the residuals `f`
     /// (`epr`), Jacobian rows `j` (`epr * NX`, row-major) and the coefficient part at `dc`,
     /// `d` (`epr`: `dH/dt` for `dc = dc/dt`). Wrong lengths leave the outputs untouched. The
@@ -126,7 +126,7 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
     }
 
     /// The global equations' residuals `f` (`NF - rows * epr`) and Jacobian rows `j`
-    /// (row-major) for `LANES` paths. The default does nothing.
+    /// (row-major), one path per lane of `L`. The default does nothing.
     #[inline(always)]
     fn lanes_globals<L: crate::lanes::Lanes>(x: &[L; NX], f: &mut [L], j: &mut [L]) {
         let _ = (x, f, j);

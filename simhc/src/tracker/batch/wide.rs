@@ -137,17 +137,9 @@ impl<const W: usize, const FMA: bool> Lanes for Wide<W, FMA> {
     }
     #[inline(always)]
     fn mul_sub(self, b: Self, c: Self) -> Self {
-        if !FMA {
-            // Unfused: the trait's order (what unfused generated code computes).
-            return self * b - c;
-        }
-        let mut out = c;
-        for l in 0..W {
-            let (xr, xi, yr, yi) = (self.re[l], self.im[l], b.re[l], b.im[l]);
-            out.re[l] = madd::<FMA>(xr, yr, madd::<FMA>(-xi, yi, -c.re[l]));
-            out.im[l] = madd::<FMA>(xr, yi, madd::<FMA>(xi, yr, -c.im[l]));
-        }
-        out
+        // `a b + (-c)`: negation is exact and `x - y == x + (-y)` in IEEE arithmetic, so this
+        // is `mul_add`'s computation, fused or not.
+        self.mul_add(b, -c)
     }
     #[inline(always)]
     fn neg_mul_add(self, b: Self, c: Self) -> Self {

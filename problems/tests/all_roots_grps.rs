@@ -413,4 +413,31 @@ fn batch_tracker_reports_bad_input_per_path() {
     assert!(run(&[0], &TrackerOptions::paper(0.05)).is_none(), "fixed steps");
     assert!(run(&[0], &TrackerOptions::single_path()).is_none(), "drag steps");
     assert!(run(&[0], &TrackerOptions { predictor: Predictor::Euler, ..opts }).is_none());
+    // A queue naming settings that do not exist gets a typed error for that job; settings the
+    // lanes do not run decline the whole call.
+    use simhc::tracker::batch::{track_batch_queue, LaneIsa, PathJob, PathQueue};
+    struct Jobs(Vec<PathJob>, Vec<(PathJob, Result<simhc::tracker::TrackResult<C, 8>, TrackError>)>);
+    impl PathQueue<8> for Jobs {
+        fn next(&mut self) -> Option<PathJob> {
+            self.0.pop()
+        }
+        fn finished(&mut self, job: PathJob, result: Result<simhc::tracker::TrackResult<C, 8>, TrackError>) {
+            self.1.push((job, result));
+        }
+    }
+    let jobs = vec![PathJob { id: 0, start: 0, settings: 1 }, PathJob { id: 1, start: 2, settings: 0 }];
+    let mut queue = Jobs(jobs.clone(), Vec::new());
+    let isa = LaneIsa::detect();
+    assert!(track_batch_queue::<Grps7, _, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &starts, &[opts], &mut queue));
+    assert_eq!(queue.1.len(), 2);
+    for (job, result) in &queue.1 {
+        match job.id {
+            0 => assert_eq!(*result, Err(TrackError::NoTrackerSettings { index: 1, available: 1 })),
+            _ => assert!(result.is_ok(), "{result:?}"),
+        }
+    }
+    let mut queue = Jobs(jobs, Vec::new());
+    let settings = [opts, TrackerOptions::paper(0.05)];
+    assert!(!track_batch_queue::<Grps7, _, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &starts, &settings, &mut queue));
+    assert!(queue.1.is_empty(), "nothing tracked");
 }

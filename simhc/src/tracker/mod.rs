@@ -149,6 +149,15 @@ pub enum TrackError {
         /// How many start points there are.
         available: usize,
     },
+    /// A batch job named tracker settings that do not exist ([`batch::PathJob::settings`]
+    /// beyond the settings given to [`batch::track_batch_queue`]).
+    #[error("no tracker settings with index {index} ({available} given)")]
+    NoTrackerSettings {
+        /// The requested index.
+        index: usize,
+        /// How many settings there are.
+        available: usize,
+    },
 }
 
 impl TrackError {
@@ -161,7 +170,7 @@ impl TrackError {
             | TrackError::MaxSteps { t }
             | TrackError::CorrectorDidNotConverge { t }
             | TrackError::NonFinite { t } => t,
-            TrackError::NoStartPoint { .. } => 0.0,
+            TrackError::NoStartPoint { .. } | TrackError::NoTrackerSettings { .. } => 0.0,
         }
     }
 }

@@ -608,61 +608,138 @@ where
     P: CoefficientForm<N, N, NP, NC>,
     H: Homotopy<C, N, N>,
 {
-    if !batch_supported(options) || !isa.available() {
+    let mut queue = InOrder { indices, next: 0, results: vec![None; indices.len()] };
+    if !track_batch_queue(isa, system, h, starts, std::slice::from_ref(options), &mut queue) {
         return None;
     }
-    let StepControl::Adaptive(a) = options.step else {
-        return None;
-    };
-    let run = (system, h, starts, indices, options, &a, isa);
-    Some(match isa {
-        LaneIsa::Avx512 => track_lanes::<P, H, N, NP, NC, { LaneIsa::WIDE }, true>(run),
-        LaneIsa::Avx2 => track_lanes::<P, H, N, NP, NC, { LaneIsa::NARROW }, true>(run),
-        LaneIsa::Baseline => track_lanes::<P, H, N, NP, NC, { LaneIsa::NARROW }, false>(run),
-    })
+    Some(queue.results.into_iter().map(|r| r.unwrap_or(Err(TrackError::NonFinite { t: 0.0 }))).collect())
+}
+
+/// One path for [`track_batch_queue`]: start point `starts[start]` tracked with
+/// `settings[settings]`; `id` is the queue's own tag, handed back with the result.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PathJob {
+    /// The queue's tag of this job.
+    pub id: usize,
+    /// Index of the start point.
+    pub start: usize,
+    /// Index of the tracker settings.
+    pub settings: usize,
+}
+
+/// Where [`track_batch_queue`] takes its paths from and leaves their results. The queue sees
+/// every result as soon as its path ends, so it can decide further paths from them — the
+/// all-roots path-jump repair re-tracks a suspicious path at once, in lanes that the tail of
+/// the main pass would leave idle.
+pub trait PathQueue<const N: usize> {
+    /// The next path to track, `None` when there is none now (asked again after the next
+    /// operation; tracking ends when no path is in flight and the queue has none).
+    fn next(&mut self) -> Option<PathJob>;
+    /// The result of a job that [`PathQueue::next`] returned.
+    fn finished(&mut self, job: PathJob, result: Result<TrackResult<C, N>, TrackError>);
+}
+
+/// The jobs `indices` in order, all with settings `0`, results by position.
+struct InOrder<'a, const N: usize> {
+    indices: &'a [usize],
+    next: usize,
+    results: Vec<Option<Result<TrackResult<C, N>, TrackError>>>,
+}
+
+impl<const N: usize> PathQueue<N> for InOrder<'_, N> {
+    fn next(&mut self) -> Option<PathJob> {
+        let id = self.next;
+        let start = *self.indices.get(id)?;
+        self.next += 1;
+        Some(PathJob { id, start, settings: 0 })
+    }
+
+    fn finished(&mut self, job: PathJob, result: Result<TrackResult<C, N>, TrackError>) {
+        if let Some(slot) = self.results.get_mut(job.id) {
+            *slot = Some(result);
+        }
+    }
+}
+
+/// Tracks the paths that `queue` hands out along `system`, one per lane of `isa`'s batch
+/// operation (see [`track_batch`]), each with its job's entry of `settings`. Returns `false`
+/// without tracking when `isa` does not run on this CPU or some entry of `settings` is not
+/// [`batch_supported`]. A job whose start point or settings index does not exist ends with
+/// [`TrackError::NoStartPoint`] / [`TrackError::NoTrackerSettings`].
+pub fn track_batch_queue<P, H, Q, const N: usize, const NP: usize, const NC: usize>(
+    isa: LaneIsa,
+    system: &LaneSystem<P, N, NC>,
+    h: &H,
+    starts: &[SVector<C, N>],
+    settings: &[TrackerOptions],
+    queue: &mut Q,
+) -> bool
+where
+    P: CoefficientForm<N, N, NP, NC>,
+    H: Homotopy<C, N, N>,
+    Q: PathQueue<N>,
+{
+    if !isa.available() {
+        return false;
+    }
+    let mut steps = Vec::with_capacity(settings.len());
+    for o in settings {
+        match o.step {
+            StepControl::Adaptive(a) if batch_supported(o) => steps.push((*o, a)),
+            _ => return false,
+        }
+    }
+    let run = (system, h, starts, steps.as_slice(), isa);
+    match isa {
+        LaneIsa::Avx512 => track_lanes::<P, H, Q, N, NP, NC, { LaneIsa::WIDE }, true>(run, queue),
+        LaneIsa::Avx2 => track_lanes::<P, H, Q, N, NP, NC, { LaneIsa::NARROW }, true>(run, queue),
+        LaneIsa::Baseline => track_lanes::<P, H, Q, N, NP, NC, { LaneIsa::NARROW }, false>(run, queue),
+    }
+    true
 }
 
 /// The arguments of [`track_lanes`].
 type Run<'a, P, H, const N: usize, const NC: usize> =
-    (&'a LaneSystem<P, N, NC>, &'a H, &'a [SVector<C, N>], &'a [usize], &'a TrackerOptions, &'a AdaptiveStep, LaneIsa);
+    (&'a LaneSystem<P, N, NC>, &'a H, &'a [SVector<C, N>], &'a [(TrackerOptions, AdaptiveStep)], LaneIsa);
 
-/// [`track_batch_with`] with `W` paths per operation and fused (`FMA`) or plain arithmetic.
-fn track_lanes<P, H, const N: usize, const NP: usize, const NC: usize, const W: usize, const FMA: bool>(
-    (system, h, starts, indices, options, a, isa): Run<'_, P, H, N, NC>,
-) -> Vec<Result<TrackResult<C, N>, TrackError>>
-where
+/// [`track_batch_queue`] with `W` paths per operation and fused (`FMA`) or plain arithmetic.
+fn track_lanes<P, H, Q, const N: usize, const NP: usize, const NC: usize, const W: usize, const FMA: bool>(
+    (system, h, starts, settings, isa): Run<'_, P, H, N, NC>,
+    queue: &mut Q,
+) where
     P: CoefficientForm<N, N, NP, NC>,
     H: Homotopy<C, N, N>,
+    Q: PathQueue<N>,
 {
-    let a = *a;
-    let mut results: Vec<Option<Result<TrackResult<C, N>, TrackError>>> = vec![None; indices.len()];
-    let mut slots: [Option<(usize, Path<N>)>; W] = [None; W];
-    let mut next = 0;
+    let mut slots: [Option<(PathJob, Path<N>)>; W] = [None; W];
     let mut scratch = vec![Wide::<W, FMA>::default(); 2 * system.per_row];
-    // Fills a free lane with the next start point that starts cleanly.
-    let refill = |slot: &mut Option<(usize, Path<N>)>, results: &mut Vec<Option<_>>, next: &mut usize| {
-        while *next < indices.len() {
-            let k = *next;
-            *next += 1;
-            let index = indices[k];
-            let missing = TrackError::NoStartPoint { index, available: starts.len() };
-            match starts.get(index).ok_or(missing).and_then(|x0| Path::start(x0, options, &a)) {
+    // Fills a free lane with the queue's next path that starts cleanly.
+    let refill = |slot: &mut Option<(PathJob, Path<N>)>, queue: &mut Q| {
+        while let Some(job) = queue.next() {
+            let started = match (starts.get(job.start), settings.get(job.settings)) {
+                (None, _) => Err(TrackError::NoStartPoint { index: job.start, available: starts.len() }),
+                (_, None) => Err(TrackError::NoTrackerSettings { index: job.settings, available: settings.len() }),
+                (Some(x0), Some((o, a))) => Path::start(x0, o, a),
+            };
+            match started {
                 Ok(p) => {
-                    *slot = Some((k, p));
+                    *slot = Some((job, p));
                     return;
                 }
-                Err(e) => results[k] = Some(Err(e)),
+                Err(e) => queue.finished(job, Err(e)),
             }
         }
-        *slot = None;
     };
-    for slot in slots.iter_mut() {
-        refill(slot, &mut results, &mut next);
-    }
     let mut x = [Wide::<W, FMA>::default(); N];
     let mut u = [Wide::<W, FMA>::default(); N];
     let mut v = [Wide::<W, FMA>::default(); N];
-    while let Some(filler) = slots.iter().flatten().next().map(|(_, p)| (p.at, p.at_t)) {
+    loop {
+        for slot in slots.iter_mut().filter(|s| s.is_none()) {
+            refill(slot, queue);
+        }
+        let Some(filler) = slots.iter().flatten().next().map(|(_, p)| (p.at, p.at_t)) else {
+            break;
+        };
         let mut t = [0.0; W];
         for (l, slot) in slots.iter().enumerate() {
             // Idle lanes repeat an active lane's request (finite, discarded).
@@ -684,19 +761,22 @@ where
             scratch: &mut scratch,
         });
         for (l, slot) in slots.iter_mut().enumerate() {
-            let Some((k, path)) = slot.as_mut() else {
+            let Some((job, path)) = slot.as_mut() else {
                 continue;
             };
+            let (o, a) = &settings[job.settings];
             let (ul, vl) = (lane_of(&u, l), lane_of(&v, l));
-            if let Next::Done(r) = path.feed(&ul, &vl, status[l], options, &a) {
-                let k = *k;
-                results[k] = Some(r.map(|mut tr| {
-                    tr.residual = h.validation_residual(&tr.x, 1.0);
-                    tr
-                }));
-                refill(slot, &mut results, &mut next);
+            if let Next::Done(r) = path.feed(&ul, &vl, status[l], o, a) {
+                let job = *job;
+                *slot = None;
+                queue.finished(
+                    job,
+                    r.map(|mut tr| {
+                        tr.residual = h.validation_residual(&tr.x, 1.0);
+                        tr
+                    }),
+                );
             }
         }
     }
-    results.into_iter().map(|r| r.unwrap_or(Err(TrackError::NonFinite { t: 0.0 }))).collect()
 }

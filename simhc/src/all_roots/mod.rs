@@ -18,7 +18,7 @@
 
 use crate::homotopy::{real_if_close, to_complex, Homotopy, ParameterHomotopy};
 use crate::monodromy::{relative_distance, SignFlip, C};
-use crate::tracker::batch::{batch_supported, track_batch_with, LaneIsa, LaneSystem};
+use crate::tracker::batch::{batch_supported, track_batch_queue, LaneIsa, LaneSystem};
 use crate::tracker::{
     newton, track, AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackError, TrackStats,
     TrackerOptions,
@@ -29,6 +29,10 @@ use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
+use repair::{PathResult, RepairQueue};
+pub use repair::{suspicious_paths, EndPoint};
+
+mod repair;
 
 /// A generic complex instance `p*` and its solutions (one representative per orbit of
 /// `symmetry`).
@@ -97,28 +101,44 @@ pub struct AllRootsOptions {
 }
 
 /// The all-roots tracker: the adaptive tracker ([`TrackerOptions::default`], faithful, no drag
-/// steps) with the Heun predictor. Calibration (GRPS7 from the shipped start, 200 noise-free
-/// scenes, this machine): RK4 146 ms per solve, Heun about 25 % less at the same success (every
-/// ground truth found, with the path-jump repair); Heun needs more but cheaper steps, and the
-/// complex evaluation of `J_x` and `dH/dt` dominates the cost.
+/// steps) with the Heun predictor and the end-point tolerance [`ALL_ROOTS_FINAL_TOLERANCE`].
+/// Calibration (GRPS7 from the shipped start, 200 noise-free scenes, this machine): RK4 146 ms
+/// per solve, Heun about 25 % less at the same success (every ground truth found, with the
+/// path-jump repair); Heun needs more but cheaper steps, and the complex evaluation of `J_x` and
+/// `dH/dt` dominates the cost.
 pub fn all_roots_tracker() -> TrackerOptions {
     TrackerOptions {
         predictor: Predictor::Heun,
+        final_tolerance: ALL_ROOTS_FINAL_TOLERANCE,
         ..TrackerOptions::default()
     }
 }
 
+/// The estimated relative error an end point must reach at `t = 1` in an all-roots solve:
+/// `1e-10`. Why not the tracker's default `1e-12`: many targets have complex solutions of
+/// large modulus that are ill-conditioned (GRPS7: `|x|` about `1e3`, condition number
+/// `1e7`-`1e8`), where double precision stalls near `1e-12` and the point counted as a failed
+/// path that the repair then re-tracked twice, mostly in vain (measured, 200 noise-free GRPS7
+/// solves: 145 of 28000 paths failed after the repair with `1e-12`, 5 with `1e-10`). `1e-10` is
+/// still far below what the results need: [`AllRootsOptions::duplicate_tolerance`] (`1e-8`)
+/// and [`AllRootsOptions::real_tolerance`] (`1e-6`); real solutions are polished on the target.
+pub const ALL_ROOTS_FINAL_TOLERANCE: f64 = 1e-10;
+
 /// The tracker for re-tracking suspicious paths: the adaptive tracker with a tighter
-/// contraction test, path-jump guard and largest step (`0.1`), and the RK4 predictor.
+/// contraction test, path-jump guard and largest step (`0.1`), the RK4 predictor, and the
+/// all-roots end-point tolerance.
 pub fn strict_tracker() -> TrackerOptions {
-    TrackerOptions::adaptive(AdaptiveStep {
-        initial: 0.02,
-        max: 0.1,
-        max_contraction: 0.1,
-        max_relative_correction: 0.1,
-        target_contraction: 0.02,
-        ..AdaptiveStep::default()
-    })
+    TrackerOptions {
+        final_tolerance: ALL_ROOTS_FINAL_TOLERANCE,
+        ..TrackerOptions::adaptive(AdaptiveStep {
+            initial: 0.02,
+            max: 0.1,
+            max_contraction: 0.1,
+            max_relative_correction: 0.1,
+            target_contraction: 0.02,
+            ..AdaptiveStep::default()
+        })
+    }
 }
 
 impl Default for AllRootsOptions {
@@ -285,15 +305,31 @@ where
     };
     match lanes {
         Some(system) => {
-            let batch = |indices: &[usize], opts: &TrackerOptions| -> Vec<PathResult<N>> {
+            // The main pass with the repair's first round streamed in (`repair`), or one round.
+            let batch = |indices: &[usize], opts: &TrackerOptions, repair: Option<&TrackerOptions>| {
+                let settings: Vec<TrackerOptions> = std::iter::once(*opts).chain(repair.copied()).collect();
                 let run = |part: &[usize]| {
-                    track_batch_with::<P, _, N, NP, NC>(isa, &system, &h, &start.solutions, part, opts)
-                        .unwrap_or_default()
+                    let mut queue = RepairQueue::new(
+                        part,
+                        repair.is_some(),
+                        start.symmetry.as_ref(),
+                        options.duplicate_tolerance,
+                    );
+                    track_batch_queue(isa, &system, &h, &start.solutions, &settings, &mut queue)
+                        .then(|| queue.into_results())
                 };
                 if options.parallel {
                     let parts = rayon::current_num_threads().max(1);
                     let size = indices.len().div_ceil(parts).max(1);
-                    indices.par_chunks(size).flat_map_iter(run).collect()
+                    let done: Option<Vec<_>> = indices.par_chunks(size).map(run).collect();
+                    done.map(|done| {
+                        let (mut main, mut retracked) = (Vec::new(), Vec::new());
+                        for (m, r) in done {
+                            main.extend(m);
+                            retracked.extend(r);
+                        }
+                        (main, retracked)
+                    })
                 } else {
                     run(indices)
                 }
@@ -304,11 +340,31 @@ where
     }
 }
 
-/// One path's outcome.
-type PathResult<const N: usize> = Result<crate::tracker::TrackResult<C, N>, TrackError>;
+/// Tracks the start solutions of the given indices with the given settings in path lanes;
+/// with repair settings, also re-tracks the suspicious ones ([`repair::RepairQueue`]). Returns
+/// the results in the order of the indices and the re-tracks (start index, result), or `None`
+/// when the lanes do not run the settings.
+type BatchTracking<'a, const N: usize> = dyn Fn(&[usize], &TrackerOptions, Option<&TrackerOptions>) -> Option<(Vec<PathResult<N>>, Vec<(usize, PathResult<N>)>)>
+    + Sync
+    + 'a;
 
-/// Tracks the start solutions of the given indices with the given settings, in path lanes.
-type BatchTracking<'a, const N: usize> = dyn Fn(&[usize], &TrackerOptions) -> Vec<PathResult<N>> + Sync + 'a;
+/// The settings of each round of the path-jump repair: [`AllRootsOptions::retrack`], the
+/// largest step halved from one round to the next.
+fn repair_rounds(options: &AllRootsOptions) -> Vec<TrackerOptions> {
+    let Some(mut opts) = options.retrack else {
+        return Vec::new();
+    };
+    (0..options.retrack_rounds)
+        .map(|_| {
+            let round = opts;
+            if let StepControl::Adaptive(a) = &mut opts.step {
+                a.max *= 0.5;
+                a.initial = a.initial.min(a.max);
+            }
+            round
+        })
+        .collect()
+}
 
 /// Tracks all start solutions along `h` (sequentially or with rayon) and collects the result.
 fn solve_along<P, H, const N: usize, const NP: usize>(
@@ -322,10 +378,7 @@ where
     P: ParamDerivative<N, N, NP>,
     H: Homotopy<C, N, N> + Sync,
 {
-    let track_all = |indices: &[usize], opts: &TrackerOptions| -> Vec<_> {
-        if let Some(track_lanes) = batch.filter(|_| batch_supported(opts)) {
-            return track_lanes(indices, opts);
-        }
+    let one_by_one = |indices: &[usize], opts: &TrackerOptions| -> Vec<_> {
         let one = |&i: &usize| track(h, &start.solutions[i], opts);
         if options.parallel {
             indices.par_iter().map(one).collect()
@@ -333,30 +386,41 @@ where
             indices.iter().map(one).collect()
         }
     };
+    let lanes = |opts: &TrackerOptions| batch.filter(|_| batch_supported(opts));
+    let rounds = repair_rounds(options);
     let all: Vec<usize> = (0..start.solutions.len()).collect();
-    let mut results = track_all(&all, &options.tracker);
+    let streamed = rounds.first().filter(|o| batch_supported(o));
+    let (mut results, mut early) = match lanes(&options.tracker).and_then(|b| b(&all, &options.tracker, streamed)) {
+        Some(done) => done,
+        None => (one_by_one(&all, &options.tracker), Vec::new()),
+    };
     let mut retracked = 0;
-    if let Some(strict) = options.retrack {
-        let mut opts = strict;
-        for _ in 0..options.retrack_rounds {
-            let suspects = suspicious_paths(
-                &results,
-                start.symmetry.as_ref(),
-                options.duplicate_tolerance,
-            );
-            if suspects.is_empty() {
-                break;
-            }
-            retracked += suspects.len();
-            for (i, r) in suspects.iter().zip(track_all(&suspects, &opts)) {
-                // Keep a success over a failure.
-                if r.is_ok() || results[*i].is_err() {
-                    results[*i] = r;
+    for (round, opts) in rounds.iter().enumerate() {
+        let suspects = suspicious_paths(&results, start.symmetry.as_ref(), options.duplicate_tolerance);
+        if suspects.is_empty() {
+            break;
+        }
+        retracked += suspects.len();
+        // First round: take the re-tracks the main pass already did, track the rest.
+        let mut again: Vec<Option<PathResult<N>>> = vec![None; suspects.len()];
+        if round == 0 {
+            for (i, r) in early.drain(..) {
+                if let Ok(pos) = suspects.binary_search(&i) {
+                    again[pos] = Some(r);
                 }
             }
-            if let StepControl::Adaptive(a) = &mut opts.step {
-                a.max *= 0.5;
-                a.initial = a.initial.min(a.max);
+        }
+        let rest: Vec<usize> = suspects.iter().zip(&again).filter(|(_, r)| r.is_none()).map(|(&i, _)| i).collect();
+        let rest_results = match lanes(opts).and_then(|b| b(&rest, opts, None)) {
+            Some((done, _)) => done,
+            None => one_by_one(&rest, opts),
+        };
+        let mut rest_results = rest_results.into_iter();
+        for (&i, r) in suspects.iter().zip(again) {
+            let Some(r) = r.or_else(|| rest_results.next()) else { continue };
+            // Keep a success over a failure.
+            if r.is_ok() || results[i].is_err() {
+                results[i] = r;
             }
         }
     }
@@ -371,78 +435,6 @@ where
     .filter(|&&i| result.endpoints[i].is_ok())
     .count();
     result
-}
-
-/// Indices of the paths that failed or whose end point coincides with another path's (modulo
-/// the symmetry).
-pub fn suspicious_paths<T: EndPoint<N>, const N: usize>(
-    results: &[Result<T, TrackError>],
-    symmetry: Option<&SignFlip>,
-    tolerance: f64,
-) -> Vec<usize> {
-    let mut flagged = vec![false; results.len()];
-    // Sort by a cheap key (modulus of the first coordinate, symmetric under sign flips) so that
-    // only neighbours in the key need the full comparison.
-    let mut order: Vec<(f64, usize)> = results
-        .iter()
-        .enumerate()
-        .filter_map(|(i, r)| match r {
-            Ok(r) => Some((key(r.point()), i)),
-            Err(_) => {
-                flagged[i] = true;
-                None
-            }
-        })
-        .collect();
-    order.sort_by(|a, b| a.0.total_cmp(&b.0));
-    for a in 0..order.len() {
-        let (ka, ia) = order[a];
-        let xa = match &results[ia] {
-            Ok(r) => *r.point(),
-            Err(_) => continue,
-        };
-        let gxa = symmetry.map(|g| g.apply(&xa));
-        for &(kb, ib) in &order[a + 1..] {
-            if kb - ka > tolerance * ka.max(1.0) * 2.0 + 1e-300 {
-                break;
-            }
-            if let Ok(rb) = &results[ib] {
-                let xb = rb.point();
-                let d = relative_distance(&xa, xb).min(
-                    gxa.as_ref()
-                        .map_or(f64::INFINITY, |g| relative_distance(g, xb)),
-                );
-                if d <= tolerance {
-                    flagged[ia] = true;
-                    flagged[ib] = true;
-                }
-            }
-        }
-    }
-    (0..results.len()).filter(|&i| flagged[i]).collect()
-}
-
-/// Sort key of an end point: the largest modulus over its coordinates (sign-flip invariant).
-fn key<const N: usize>(x: &SVector<C, N>) -> f64 {
-    x.iter().map(|z| z.norm()).fold(0.0, f64::max)
-}
-
-/// Something with an end point: a [`crate::tracker::TrackResult`] or a bare point.
-pub trait EndPoint<const N: usize> {
-    /// The point.
-    fn point(&self) -> &SVector<C, N>;
-}
-
-impl<const N: usize> EndPoint<N> for SVector<C, N> {
-    fn point(&self) -> &SVector<C, N> {
-        self
-    }
-}
-
-impl<const N: usize> EndPoint<N> for crate::tracker::TrackResult<C, N> {
-    fn point(&self) -> &SVector<C, N> {
-        &self.x
-    }
 }
 
 /// Largest degree in `t` of the coefficients `c(p(t))` that [`CoefficientParameterHomotopy`]

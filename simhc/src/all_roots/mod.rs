@@ -78,8 +78,8 @@ pub struct AllRootsOptions {
     pub polish_iterations: usize,
     /// Track in parallel with rayon. Default `false`.
     pub parallel: bool,
-    /// Track [`crate::lanes::LANES`] paths at a time, one per SIMD lane
-    /// ([`crate::tracker::batch`]), when the problem has path-lane code
+    /// Track several paths at a time, one per SIMD lane ([`crate::tracker::batch`]; 8 with
+    /// AVX-512, 4 otherwise), when the problem has path-lane code
     /// ([`CoefficientForm::PATH_LANES`], via [`solve_all_fast`]) and the tracker settings allow
     /// it ([`batch_supported`]); otherwise, and with `false`, one path at a time. Default `true`.
     pub batch: bool,
@@ -91,8 +91,11 @@ pub struct AllRootsOptions {
     /// with these stricter settings, up to `retrack_rounds` times (each round halves the largest
     /// step). Two paths of a parameter homotopy from a generic start never meet before `t = 1`,
     /// so coinciding regular end points mean that one path jumped onto another (losing a root);
-    /// coinciding singular end points (a multiple root of the target) stay duplicated. `None`
-    /// disables the repair. Default: [`strict_tracker`].
+    /// coinciding singular end points (a multiple root of the target) stay duplicated. With the
+    /// batch tracker the first round runs inside the main pass: a path is re-tracked as soon as
+    /// it is known to be suspicious, in lanes that would otherwise idle (the same paths as
+    /// after the pass, so the result is the same). `None` disables the repair. Default:
+    /// [`strict_tracker`].
     pub retrack: Option<TrackerOptions>,
     /// Rounds of the path-jump repair. Default `2`.
     pub retrack_rounds: usize,

@@ -15,7 +15,8 @@
 //! [`super::Tracker`] with the Heun or RK4 predictor — same step rules (shared code in
 //! `step_size`), same corrector decisions (the corrector's shared `apply_update`) — one request
 //! at a time;
-//! a lane whose path ends takes the next start point. Lanes never mix, so a path's result does
+//! a lane whose path ends takes the next start point ([`PathQueue`]: a caller's queue may add
+//! paths as results come in). Lanes never mix, so a path's result does
 //! not depend on its lane or its neighbours (nor on the thread count when batches run in
 //! parallel). Differences from [`super::Tracker`]: the tangent after an accepted step uses
 //! `dH/dt` at the last corrector iterate (within the corrector's last update of the accepted

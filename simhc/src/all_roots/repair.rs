@@ -11,7 +11,7 @@
 //! found, nor on how the paths were split over threads.
 
 use crate::monodromy::{relative_distance, SignFlip, C};
-use crate::tracker::batch::{PathJob, PathQueue};
+use crate::tracker::batch::{InOrder, PathJob, PathQueue};
 use crate::tracker::{TrackError, TrackResult};
 use nalgebra::SVector;
 use std::collections::VecDeque;
@@ -103,14 +103,12 @@ fn coincide<const N: usize>(
 /// The main pass over `indices` (settings `0`) with the repair's first round (settings `1`)
 /// streamed in: see the module docs.
 pub(super) struct RepairQueue<'a, const N: usize> {
-    indices: &'a [usize],
-    next: usize,
+    /// The main pass (settings `0`) and its results.
+    main: InOrder<'a, N>,
     /// Re-track suspects (settings `1`); `false`: the main pass only.
     repair: bool,
     symmetry: Option<&'a SignFlip>,
     tolerance: f64,
-    /// Main-pass results by position in `indices`.
-    main: Vec<Option<PathResult<N>>>,
     /// Positions of the successful main-pass results so far, with their keys.
     ended: Vec<(f64, usize)>,
     flagged: Vec<bool>,
@@ -122,12 +120,10 @@ pub(super) struct RepairQueue<'a, const N: usize> {
 impl<'a, const N: usize> RepairQueue<'a, N> {
     pub(super) fn new(indices: &'a [usize], repair: bool, symmetry: Option<&'a SignFlip>, tolerance: f64) -> Self {
         Self {
-            indices,
-            next: 0,
+            main: InOrder::new(indices),
             repair,
             symmetry,
             tolerance,
-            main: vec![None; indices.len()],
             ended: Vec::with_capacity(indices.len()),
             flagged: vec![false; indices.len()],
             pending: VecDeque::new(),
@@ -137,8 +133,7 @@ impl<'a, const N: usize> RepairQueue<'a, N> {
 
     /// The main-pass results in the order of `indices`, and the first-round re-tracks.
     pub(super) fn into_results(self) -> (Vec<PathResult<N>>, Vec<(usize, PathResult<N>)>) {
-        let main = self.main.into_iter().map(|r| r.unwrap_or(Err(TrackError::NonFinite { t: 0.0 }))).collect();
-        (main, self.retracked)
+        (self.main.into_results(), self.retracked)
     }
 
     fn flag(&mut self, k: usize) {
@@ -157,10 +152,11 @@ impl<'a, const N: usize> RepairQueue<'a, N> {
         };
         let kk = key(&r.x);
         let mut hits = Vec::new();
+        let indices = self.main.indices();
         for &(kj, j) in &self.ended {
-            let Some(Ok(rj)) = &self.main[j] else { continue };
+            let Some(Ok(rj)) = self.main.result(j) else { continue };
             // The pair in `suspicious_paths`' order: by key, then by start index.
-            let k_first = (kk, self.indices[k]) < (kj, self.indices[j]);
+            let k_first = (kk, indices[k]) < (kj, indices[j]);
             let ((ka, xa), (kb, xb)) = if k_first { ((kk, &r.x), (kj, &rj.x)) } else { ((kj, &rj.x), (kk, &r.x)) };
             if within_key(ka, kb, self.tolerance) && coincide(xa, xb, self.symmetry, self.tolerance) {
                 hits.push(j);
@@ -180,20 +176,15 @@ impl<const N: usize> PathQueue<N> for RepairQueue<'_, N> {
     fn next(&mut self) -> Option<PathJob> {
         // Re-tracks first: a late start would lengthen the tail of the pass.
         if let Some(k) = self.pending.pop_front() {
-            return Some(PathJob { id: k, start: self.indices[k], settings: 1 });
+            return Some(PathJob { id: k, start: self.main.indices()[k], settings: 1 });
         }
-        let k = self.next;
-        let start = *self.indices.get(k)?;
-        self.next += 1;
-        Some(PathJob { id: k, start, settings: 0 })
+        self.main.next()
     }
 
     fn finished(&mut self, job: PathJob, result: PathResult<N>) {
         if job.settings == 0 {
             self.ended_main(job.id, &result);
-            if let Some(slot) = self.main.get_mut(job.id) {
-                *slot = Some(result);
-            }
+            self.main.finished(job, result);
         } else {
             self.retracked.push((job.start, result));
         }

@@ -609,11 +609,8 @@ where
     P: CoefficientForm<N, N, NP, NC>,
     H: Homotopy<C, N, N>,
 {
-    let mut queue = InOrder { indices, next: 0, results: vec![None; indices.len()] };
-    if !track_batch_queue(isa, system, h, starts, std::slice::from_ref(options), &mut queue) {
-        return None;
-    }
-    Some(queue.results.into_iter().map(|r| r.unwrap_or(Err(TrackError::NonFinite { t: 0.0 }))).collect())
+    let mut queue = InOrder::new(indices);
+    track_batch_queue(isa, system, h, starts, std::slice::from_ref(options), &mut queue).then(|| queue.into_results())
 }
 
 /// One path for [`track_batch_queue`]: start point `starts[start]` tracked with
@@ -640,11 +637,36 @@ pub trait PathQueue<const N: usize> {
     fn finished(&mut self, job: PathJob, result: Result<TrackResult<C, N>, TrackError>);
 }
 
-/// The jobs `indices` in order, all with settings `0`, results by position.
-struct InOrder<'a, const N: usize> {
+/// The queue of [`track_batch_with`]: the start points `indices` in order, all with settings
+/// `0`, each job's `id` its position in `indices`; results kept by position.
+#[derive(Debug, Clone)]
+pub struct InOrder<'a, const N: usize> {
     indices: &'a [usize],
     next: usize,
     results: Vec<Option<Result<TrackResult<C, N>, TrackError>>>,
+}
+
+impl<'a, const N: usize> InOrder<'a, N> {
+    /// The jobs for `indices`, none handed out yet.
+    pub fn new(indices: &'a [usize]) -> Self {
+        Self { indices, next: 0, results: vec![None; indices.len()] }
+    }
+
+    /// The start indices, by job `id`.
+    pub fn indices(&self) -> &'a [usize] {
+        self.indices
+    }
+
+    /// The result of job `id`, if it has finished.
+    pub fn result(&self, id: usize) -> Option<&Result<TrackResult<C, N>, TrackError>> {
+        self.results.get(id)?.as_ref()
+    }
+
+    /// The results in the order of `indices` (a job never handed out, which tracking to the
+    /// end does not leave: `NonFinite` at `t = 0`).
+    pub fn into_results(self) -> Vec<Result<TrackResult<C, N>, TrackError>> {
+        self.results.into_iter().map(|r| r.unwrap_or(Err(TrackError::NonFinite { t: 0.0 }))).collect()
+    }
 }
 
 impl<const N: usize> PathQueue<N> for InOrder<'_, N> {

@@ -6,12 +6,17 @@
 //! ```sh
 //! cargo run --release -p simhc-problems --example allroots_diag -- 3   # seeds 0..3
 //! ```
+//!
+//! It also prints where along `t` the one-path tracker's steps go (accepted and rejected
+//! attempts per path, by distance `1 - t` to the target). On noise-free GRPS7 targets the steps
+//! shrink about like `1 - t` from `t = 0.5` on, so nearly half of the accepted steps start
+//! within `0.1` of the target (measured on seeds 0-3).
 
 use nalgebra::{Complex, SMatrix, SVector};
 use simhc::all_roots::{AllRootsOptions, CoefficientParameterHomotopy};
 use simhc::homotopy::{Homotopy, ParameterHomotopy};
 use simhc::tracker::batch::{track_batch, LaneSystem};
-use simhc::tracker::track;
+use simhc::tracker::{track, Tracker, TrackerStatus};
 use simhc::{CoefficientForm, Problem};
 use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::grps::{self, Grps7};
@@ -138,6 +143,7 @@ fn main() {
                 full.retracked, full.failed, bare.failed, bare.duplicates
             );
         }
+        step_distribution(seed, &h, &start.solutions, &options);
         println!(
             "  seed {seed}: {ms:.1} ms; per path {:.1} accepted, {:.1} rejected steps, {:.1} factorizations, {:.1} Newton iterations; {failed} failed",
             acc as f64 / k,
@@ -146,4 +152,39 @@ fn main() {
             newton as f64 / k,
         );
     }
+}
+
+/// Upper ends of the bins of `1 - t` in [`step_distribution`], largest first.
+const GAPS: [f64; 5] = [1.0, 0.5, 0.1, 0.01, 0.001];
+
+/// Accepted and rejected attempts per path by the distance `1 - t` of the point they start from
+/// (bins `(0.5, 1]`, `(0.1, 0.5]`, `(0.01, 0.1]`, `(0.001, 0.01]`, `[0, 0.001]`), with the
+/// one-path tracker stepped through its public `step`.
+fn step_distribution<H: Homotopy<C, 8, 8>>(seed: u64, h: &H, starts: &[SVector<C, 8>], options: &AllRootsOptions) {
+    let (mut accepted, mut rejected) = ([0usize; GAPS.len()], [0usize; GAPS.len()]);
+    for x0 in starts {
+        let mut tracker = Tracker::<C, H, 8, 8>::new(h, options.tracker);
+        if tracker.start(x0).is_err() {
+            continue;
+        }
+        loop {
+            let gap = 1.0 - tracker.state().t;
+            let bin = GAPS.iter().rposition(|&g| gap <= g).unwrap_or(0);
+            let status = tracker.step();
+            if tracker.state().last_rejected {
+                rejected[bin] += 1;
+            } else {
+                accepted[bin] += 1;
+            }
+            if status != TrackerStatus::Tracking {
+                break;
+            }
+        }
+    }
+    let per_path = |v: [usize; GAPS.len()]| v.map(|n| format!("{:.1}", n as f64 / starts.len() as f64)).join(" / ");
+    println!(
+        "  seed {seed}: attempts per path by 1 - t in (0.5,1] / (0.1,0.5] / (0.01,0.1] / (0.001,0.01] / [0,0.001]: accepted {}, rejected {}",
+        per_path(accepted),
+        per_path(rejected)
+    );
 }

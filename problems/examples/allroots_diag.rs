@@ -16,7 +16,7 @@ use nalgebra::{Complex, SMatrix, SVector};
 use simhc::all_roots::{AllRootsOptions, CoefficientParameterHomotopy};
 use simhc::homotopy::{Homotopy, ParameterHomotopy};
 use simhc::tracker::batch::{track_batch, LaneSystem};
-use simhc::tracker::{track, Tracker, TrackerStatus};
+use simhc::tracker::{TrackError, TrackStats, Tracker, TrackerOptions, TrackerStatus};
 use simhc::{CoefficientForm, Problem};
 use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::grps::{self, Grps7};
@@ -100,14 +100,15 @@ fn main() {
         }
         let t0 = Instant::now();
         let (mut acc, mut rej, mut fact, mut newton, mut failed) = (0, 0, 0, 0, 0);
+        let mut bins = StepBins::default();
         let batch_only = std::env::var("BATCHONLY").is_ok();
         for x0 in start.solutions.iter().filter(|_| !batch_only) {
-            match track(&h, x0, &options.tracker) {
-                Ok(r) => {
-                    acc += r.stats.accepted_steps;
-                    rej += r.stats.rejected_steps;
-                    fact += r.stats.factorizations;
-                    newton += r.stats.newton_iterations;
+            match track_binned(&h, x0, &options.tracker, &mut bins) {
+                Ok(stats) => {
+                    acc += stats.accepted_steps;
+                    rej += stats.rejected_steps;
+                    fact += stats.factorizations;
+                    newton += stats.newton_iterations;
                 }
                 Err(_) => failed += 1,
             }
@@ -143,7 +144,12 @@ fn main() {
                 full.retracked, full.failed, bare.failed, bare.duplicates
             );
         }
-        step_distribution(seed, &h, &start.solutions, &options);
+        let per_path = |v: [usize; GAPS.len()]| v.map(|n| format!("{:.1}", n as f64 / k)).join(" / ");
+        println!(
+            "  seed {seed}: attempts per path by 1 - t in (0.5,1] / (0.1,0.5] / (0.01,0.1] / (0.001,0.01] / [0,0.001]: accepted {}, rejected {}",
+            per_path(bins.accepted),
+            per_path(bins.rejected)
+        );
         println!(
             "  seed {seed}: {ms:.1} ms; per path {:.1} accepted, {:.1} rejected steps, {:.1} factorizations, {:.1} Newton iterations; {failed} failed",
             acc as f64 / k,
@@ -154,37 +160,39 @@ fn main() {
     }
 }
 
-/// Upper ends of the bins of `1 - t` in [`step_distribution`], largest first.
+/// Upper ends of the bins of `1 - t` in [`StepBins`], largest first.
 const GAPS: [f64; 5] = [1.0, 0.5, 0.1, 0.01, 0.001];
 
-/// Accepted and rejected attempts per path by the distance `1 - t` of the point they start from
-/// (bins `(0.5, 1]`, `(0.1, 0.5]`, `(0.01, 0.1]`, `(0.001, 0.01]`, `[0, 0.001]`), with the
-/// one-path tracker stepped through its public `step`.
-fn step_distribution<H: Homotopy<C, 8, 8>>(seed: u64, h: &H, starts: &[SVector<C, 8>], options: &AllRootsOptions) {
-    let (mut accepted, mut rejected) = ([0usize; GAPS.len()], [0usize; GAPS.len()]);
-    for x0 in starts {
-        let mut tracker = Tracker::<C, H, 8, 8>::new(h, options.tracker);
-        if tracker.start(x0).is_err() {
-            continue;
-        }
-        loop {
-            let gap = 1.0 - tracker.state().t;
-            let bin = GAPS.iter().rposition(|&g| gap <= g).unwrap_or(0);
-            let status = tracker.step();
-            if tracker.state().last_rejected {
-                rejected[bin] += 1;
-            } else {
-                accepted[bin] += 1;
-            }
-            if status != TrackerStatus::Tracking {
-                break;
-            }
+/// Attempts (accepted and rejected steps) by the distance `1 - t` of the point they start from:
+/// bins `(0.5, 1]`, `(0.1, 0.5]`, `(0.01, 0.1]`, `(0.001, 0.01]`, `[0, 0.001]`.
+#[derive(Default)]
+struct StepBins {
+    accepted: [usize; GAPS.len()],
+    rejected: [usize; GAPS.len()],
+}
+
+/// [`track`] through the public `Tracker::step`, adding each attempt to `bins`; the work
+/// counters of a successful path.
+fn track_binned<H: Homotopy<C, 8, 8>>(
+    h: &H,
+    x0: &SVector<C, 8>,
+    options: &TrackerOptions,
+    bins: &mut StepBins,
+) -> Result<TrackStats, TrackError> {
+    let mut tracker = Tracker::<C, H, 8, 8>::new(h, *options);
+    tracker.start(x0)?;
+    loop {
+        let before = tracker.state().stats;
+        let bin = GAPS.iter().rposition(|&g| 1.0 - tracker.state().t <= g).unwrap_or(0);
+        let status = tracker.step();
+        let after = tracker.state().stats;
+        bins.accepted[bin] += after.accepted_steps - before.accepted_steps;
+        bins.rejected[bin] += after.rejected_steps - before.rejected_steps;
+        match status {
+            TrackerStatus::Tracking => {}
+            TrackerStatus::Success => return Ok(after),
+            TrackerStatus::Failed(e) => return Err(e),
+            TrackerStatus::Idle => return Err(TrackError::NonFinite { t: 0.0 }),
         }
     }
-    let per_path = |v: [usize; GAPS.len()]| v.map(|n| format!("{:.1}", n as f64 / starts.len() as f64)).join(" / ");
-    println!(
-        "  seed {seed}: attempts per path by 1 - t in (0.5,1] / (0.1,0.5] / (0.01,0.1] / (0.001,0.01] / [0,0.001]: accepted {}, rejected {}",
-        per_path(accepted),
-        per_path(rejected)
-    );
 }

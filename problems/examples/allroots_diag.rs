@@ -171,7 +171,7 @@ struct StepBins {
     rejected: [usize; GAPS.len()],
 }
 
-/// [`track`] through the public `Tracker::step`, adding each attempt to `bins`; the work
+/// [`simhc::tracker::track`] through the public `Tracker::step`, adding each attempt to `bins`; the work
 /// counters of a successful path.
 fn track_binned<H: Homotopy<C, 8, 8>>(
     h: &H,

@@ -9,13 +9,79 @@ use crate::ctxt::Ctxt;
 use crate::decl::{Declaration, EquationFn, Field, Shape};
 use crate::poly::{Poly, Var};
 
+/// The arithmetic the evaluator lowers to: expanded polynomials ([`PolyAlgebra`], the
+/// instance every emitter starts from) or nodes of an expression DAG that keep the declared
+/// structure ([`crate::dag::DagAlgebra`]: `rotation(q)` formed once, products not expanded).
+pub trait Algebra {
+    /// One scalar expression.
+    type E: Clone + std::fmt::Debug;
+    /// Variable `v` (unknowns first, then parameters).
+    fn var(&mut self, v: Var) -> Self::E;
+    /// A real constant.
+    fn constant(&mut self, c: f64) -> Self::E;
+    /// The value of a constant expression.
+    fn as_constant(&self, e: &Self::E) -> Option<f64>;
+    /// `a + b`.
+    fn add(&mut self, a: &Self::E, b: &Self::E) -> Self::E;
+    /// `a - b`.
+    fn sub(&mut self, a: &Self::E, b: &Self::E) -> Self::E;
+    /// `a * b`.
+    fn mul(&mut self, a: &Self::E, b: &Self::E) -> Self::E;
+    /// `-a`.
+    fn neg(&mut self, a: &Self::E) -> Self::E;
+    /// `c * a` for a real constant `c`.
+    fn scale(&mut self, a: &Self::E, c: f64) -> Self::E;
+    /// `a^n`.
+    fn pow(&mut self, a: &Self::E, n: u32) -> Self::E;
+    /// `da/dv`.
+    fn diff(&mut self, a: &Self::E, v: Var) -> Self::E;
+}
+
+/// Expanded polynomials: every operation expands (the declaration's default lowering).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PolyAlgebra;
+
+impl Algebra for PolyAlgebra {
+    type E = Poly;
+    fn var(&mut self, v: Var) -> Poly {
+        Poly::var(v)
+    }
+    fn constant(&mut self, c: f64) -> Poly {
+        Poly::constant(c)
+    }
+    fn as_constant(&self, e: &Poly) -> Option<f64> {
+        e.as_constant()
+    }
+    fn add(&mut self, a: &Poly, b: &Poly) -> Poly {
+        a + b
+    }
+    fn sub(&mut self, a: &Poly, b: &Poly) -> Poly {
+        a - b
+    }
+    fn mul(&mut self, a: &Poly, b: &Poly) -> Poly {
+        a * b
+    }
+    fn neg(&mut self, a: &Poly) -> Poly {
+        -a
+    }
+    fn scale(&mut self, a: &Poly, c: f64) -> Poly {
+        a.scale(c)
+    }
+    fn pow(&mut self, a: &Poly, n: u32) -> Poly {
+        a.pow(n)
+    }
+    fn diff(&mut self, a: &Poly, v: Var) -> Poly {
+        a.diff(v)
+    }
+}
+
 /// A symbolic value.
 #[derive(Clone, Debug)]
-pub enum Value {
-    /// A scalar polynomial.
-    Scalar(Poly),
+pub enum Value<E = Poly> {
+    /// A scalar.
+    Scalar(E),
     /// A vector.
-    Vector(Vec<Poly>),
+    Vector(Vec<E>),
     /// A row-major matrix.
     Matrix {
         /// Row count.
@@ -23,13 +89,13 @@ pub enum Value {
         /// Column count.
         cols: usize,
         /// Entries, row-major.
-        data: Vec<Poly>,
+        data: Vec<E>,
     },
     /// Result of an erroneous expression (already reported).
     Poison,
 }
 
-impl Value {
+impl<E: Clone> Value<E> {
     fn type_name(&self) -> String {
         match self {
             Value::Scalar(_) => "a scalar".into(),
@@ -40,7 +106,7 @@ impl Value {
     }
 
     /// All entries, row-major, as equations.
-    pub fn flatten(self) -> Vec<Poly> {
+    pub fn flatten(self) -> Vec<E> {
         match self {
             Value::Scalar(p) => vec![p],
             Value::Vector(v) => v,
@@ -49,7 +115,7 @@ impl Value {
         }
     }
 
-    fn map(&self, f: impl Fn(&Poly) -> Poly) -> Value {
+    fn map(&self, mut f: impl FnMut(&E) -> E) -> Value<E> {
         match self {
             Value::Scalar(p) => Value::Scalar(f(p)),
             Value::Vector(v) => Value::Vector(v.iter().map(f).collect()),
@@ -63,9 +129,9 @@ impl Value {
 
 /// What a name refers to.
 #[derive(Clone, Debug)]
-struct Binding {
+struct Binding<E> {
     name: String,
-    value: Value,
+    value: Value<E>,
     /// The first variable of an unknown symbol (for `grad`), `None` for parameters and lets.
     unknown_vars: Option<Vec<Var>>,
 }
@@ -116,7 +182,13 @@ pub struct Instance {
     pub global_eqs: usize,
 }
 
-fn field_value(field: &Field, prefix: &str, vars: &mut Vec<String>, offset: usize) -> (Value, Vec<Var>) {
+fn field_value<A: Algebra>(
+    alg: &mut A,
+    field: &Field,
+    prefix: &str,
+    vars: &mut Vec<String>,
+    offset: usize,
+) -> (Value<A::E>, Vec<Var>) {
     let name = field.ident.to_string();
     let mut new_var = |label: String| {
         let v = (offset + vars.len()) as Var;
@@ -126,17 +198,17 @@ fn field_value(field: &Field, prefix: &str, vars: &mut Vec<String>, offset: usiz
     match field.shape {
         Shape::Scalar => {
             let v = new_var(name.clone());
-            (Value::Scalar(Poly::var(v)), vec![v])
+            (Value::Scalar(alg.var(v)), vec![v])
         }
         Shape::Vector(_) | Shape::Quat => {
             let n = field.shape.scalar_count();
             let vs: Vec<Var> = (0..n).map(|i| new_var(format!("{name}[{i}]"))).collect();
-            (Value::Vector(vs.iter().map(|&v| Poly::var(v)).collect()), vs)
+            (Value::Vector(vs.iter().map(|&v| alg.var(v)).collect()), vs)
         }
         Shape::Matrix(r, c) => {
             let vs: Vec<Var> =
                 (0..r * c).map(|k| new_var(format!("{name}[{}][{}]", k / c, k % c))).collect();
-            (Value::Matrix { rows: r, cols: c, data: vs.iter().map(|&v| Poly::var(v)).collect() }, vs)
+            (Value::Matrix { rows: r, cols: c, data: vs.iter().map(|&v| alg.var(v)).collect() }, vs)
         }
         Shape::Sym(n) => {
             let mut upper = vec![0 as Var; n * n];
@@ -149,7 +221,7 @@ fn field_value(field: &Field, prefix: &str, vars: &mut Vec<String>, offset: usiz
                     vs.push(v);
                 }
             }
-            (Value::Matrix { rows: n, cols: n, data: upper.iter().map(|&v| Poly::var(v)).collect() }, vs)
+            (Value::Matrix { rows: n, cols: n, data: upper.iter().map(|&v| alg.var(v)).collect() }, vs)
         }
     }
 }
@@ -166,11 +238,23 @@ pub fn lower(decl: &Declaration, rows: usize) -> Instance {
     lower_with(None, decl, rows)
 }
 
-fn lower_with(mut cx: Option<&mut Ctxt>, decl: &Declaration, rows: usize) -> Instance {
+fn lower_with(cx: Option<&mut Ctxt>, decl: &Declaration, rows: usize) -> Instance {
+    let (equations, vars, eqs_per_row, global_eqs) = evaluate(&mut PolyAlgebra, cx, decl, rows);
+    Instance { rows, vars, equations, eqs_per_row, global_eqs }
+}
+
+/// The equations of `rows` rows then the global equations in algebra `alg`, the variables,
+/// and the equation counts per row and global. Call [`check`] first when `cx` is `None`.
+pub fn evaluate<A: Algebra>(
+    alg: &mut A,
+    mut cx: Option<&mut Ctxt>,
+    decl: &Declaration,
+    rows: usize,
+) -> (Vec<A::E>, VarTable, usize, usize) {
     let mut unknown_names = Vec::new();
     let mut base = Vec::new();
     for f in &decl.unknowns {
-        let (value, vars) = field_value(f, "", &mut unknown_names, 0);
+        let (value, vars) = field_value(alg, f, "", &mut unknown_names, 0);
         base.push(Binding { name: f.ident.to_string(), value, unknown_vars: Some(vars) });
     }
     let nx = unknown_names.len();
@@ -179,21 +263,21 @@ fn lower_with(mut cx: Option<&mut Ctxt>, decl: &Declaration, rows: usize) -> Ins
     for r in 0..rows {
         let mut this_row = Vec::new();
         for f in &decl.row_fields {
-            let (value, _) = field_value(f, &format!("row{r}."), &mut param_names, nx);
+            let (value, _) = field_value(alg, f, &format!("row{r}."), &mut param_names, nx);
             this_row.push(Binding { name: f.ident.to_string(), value, unknown_vars: None });
         }
         row_bindings.push(this_row);
     }
     for f in &decl.globals {
-        let (value, _) = field_value(f, "", &mut param_names, nx);
+        let (value, _) = field_value(alg, f, "", &mut param_names, nx);
         base.push(Binding { name: f.ident.to_string(), value, unknown_vars: None });
     }
     let mut equations = Vec::new();
     let mut eqs_per_row = 0;
     if let Some(eqs) = &decl.row_equations {
         for row in &row_bindings {
-            let mut scope: Vec<Binding> = base.iter().cloned().chain(row.iter().cloned()).collect();
-            let mut ev = Evaluator { cx: cx.as_deref_mut(), scope: &mut scope };
+            let mut scope: Vec<Binding<A::E>> = base.iter().cloned().chain(row.iter().cloned()).collect();
+            let mut ev = Evaluator { alg: &mut *alg, cx: cx.as_deref_mut(), scope: &mut scope };
             let row_eqs = ev.equation_fn(eqs);
             eqs_per_row = row_eqs.len();
             equations.extend(row_eqs);
@@ -202,34 +286,30 @@ fn lower_with(mut cx: Option<&mut Ctxt>, decl: &Declaration, rows: usize) -> Ins
     let mut global_eqs = 0;
     if let Some(eqs) = &decl.global_equations {
         let mut scope = base.clone();
-        let mut ev = Evaluator { cx: cx.as_deref_mut(), scope: &mut scope };
+        let mut ev = Evaluator { alg: &mut *alg, cx: cx.as_deref_mut(), scope: &mut scope };
         let g = ev.equation_fn(eqs);
         global_eqs = g.len();
         equations.extend(g);
     }
-    Instance {
-        rows,
-        vars: VarTable { unknown_names, param_names, coefficients: 0 },
-        equations,
-        eqs_per_row,
-        global_eqs,
-    }
+    let vars = VarTable { unknown_names, param_names, coefficients: 0 };
+    (equations, vars, eqs_per_row, global_eqs)
 }
 
-struct Evaluator<'a, 'c> {
+struct Evaluator<'a, 'c, A: Algebra> {
+    alg: &'a mut A,
     cx: Option<&'c mut Ctxt>,
-    scope: &'a mut Vec<Binding>,
+    scope: &'a mut Vec<Binding<A::E>>,
 }
 
-impl Evaluator<'_, '_> {
-    fn error<T: quote::ToTokens>(&mut self, tokens: T, msg: impl std::fmt::Display) -> Value {
+impl<A: Algebra> Evaluator<'_, '_, A> {
+    fn error<T: quote::ToTokens>(&mut self, tokens: T, msg: impl std::fmt::Display) -> Value<A::E> {
         if let Some(cx) = self.cx.as_deref_mut() {
             cx.error_spanned_by(tokens, msg);
         }
         Value::Poison
     }
 
-    fn equation_fn(&mut self, f: &EquationFn) -> Vec<Poly> {
+    fn equation_fn(&mut self, f: &EquationFn) -> Vec<A::E> {
         let Some(value) = self.block(&f.block) else { return Vec::new() };
         let poisoned = matches!(value, Value::Poison);
         let eqs = value.flatten();
@@ -243,7 +323,7 @@ impl Evaluator<'_, '_> {
         eqs
     }
 
-    fn block(&mut self, block: &syn::Block) -> Option<Value> {
+    fn block(&mut self, block: &syn::Block) -> Option<Value<A::E>> {
         let depth = self.scope.len();
         let mut tail = None;
         for (i, stmt) in block.stmts.iter().enumerate() {
@@ -287,16 +367,23 @@ impl Evaluator<'_, '_> {
         self.scope.push(Binding { name: ident.to_string(), value, unknown_vars: None });
     }
 
-    fn lookup(&self, name: &str) -> Option<&Binding> {
+    fn const_of(&self, v: &Value<A::E>) -> Option<f64> {
+        match v {
+            Value::Scalar(p) => self.alg.as_constant(p),
+            _ => None,
+        }
+    }
+
+    fn lookup(&self, name: &str) -> Option<&Binding<A::E>> {
         self.scope.iter().rev().find(|b| b.name == name)
     }
 
-    fn expr(&mut self, e: &syn::Expr) -> Value {
+    fn expr(&mut self, e: &syn::Expr) -> Value<A::E> {
         match e {
             syn::Expr::Paren(p) => self.expr(&p.expr),
             syn::Expr::Group(g) => self.expr(&g.expr),
             syn::Expr::Lit(l) => match literal(&l.lit) {
-                Some(c) => Value::Scalar(Poly::constant(c)),
+                Some(c) => Value::Scalar(self.alg.constant(c)),
                 None => self.error(l, "expected a number"),
             },
             syn::Expr::Path(p) => match p.path.get_ident() {
@@ -307,7 +394,10 @@ impl Evaluator<'_, '_> {
                 None => self.error(p, "expected a name"),
             },
             syn::Expr::Unary(u) => match u.op {
-                syn::UnOp::Neg(_) => self.expr(&u.expr).map(|p| -p),
+                syn::UnOp::Neg(_) => {
+                    let v = self.expr(&u.expr);
+                    v.map(|p| self.alg.neg(p))
+                }
                 _ => self.error(u, "unsupported operator; equations use + - * and integer powers"),
             },
             syn::Expr::Binary(b) => self.binary(b),
@@ -322,13 +412,14 @@ impl Evaluator<'_, '_> {
         }
     }
 
-    fn binary(&mut self, b: &syn::ExprBinary) -> Value {
+    fn binary(&mut self, b: &syn::ExprBinary) -> Value<A::E> {
         use syn::BinOp;
         let op = &b.op;
         if let BinOp::Div(_) = op {
             let lhs = self.expr(&b.left);
-            return match const_of(&self.expr(&b.right)) {
-                Some(c) if c != 0.0 => lhs.map(|p| p.scale(1.0 / c)),
+            let rhs = self.expr(&b.right);
+            return match self.const_of(&rhs) {
+                Some(c) if c != 0.0 => lhs.map(|p| self.alg.scale(p, 1.0 / c)),
                 _ => self.error(&b.right, "division only by a nonzero constant: the system must stay polynomial"),
             };
         }
@@ -339,7 +430,8 @@ impl Evaluator<'_, '_> {
         match op {
             BinOp::Add(_) | BinOp::Sub(_) => {
                 let sub = matches!(op, BinOp::Sub(_));
-                let f = |a: &Poly, c: &Poly| if sub { a - c } else { a + c };
+                let alg = &mut *self.alg;
+                let mut f = |a: &A::E, c: &A::E| if sub { alg.sub(a, c) } else { alg.add(a, c) };
                 match (&lhs, &rhs) {
                     (Value::Scalar(a), Value::Scalar(c)) => Value::Scalar(f(a, c)),
                     (Value::Vector(a), Value::Vector(c)) if a.len() == c.len() => {
@@ -354,9 +446,9 @@ impl Evaluator<'_, '_> {
                 }
             }
             BinOp::Mul(_) => match (&lhs, &rhs) {
-                (Value::Scalar(s), other) | (other, Value::Scalar(s)) => other.map(|p| s * p),
+                (Value::Scalar(s), other) | (other, Value::Scalar(s)) => other.map(|p| self.alg.mul(s, p)),
                 (Value::Matrix { rows, cols, data }, Value::Vector(v)) if *cols == v.len() => {
-                    Value::Vector((0..*rows).map(|r| dot(&data[r * cols..(r + 1) * cols], v)).collect())
+                    Value::Vector((0..*rows).map(|r| dot(self.alg, &data[r * cols..(r + 1) * cols], v)).collect())
                 }
                 (Value::Matrix { rows, cols, data: a }, Value::Matrix { rows: r2, cols: c2, data: c })
                     if cols == r2 =>
@@ -364,8 +456,8 @@ impl Evaluator<'_, '_> {
                     let mut out = Vec::with_capacity(rows * c2);
                     for i in 0..*rows {
                         for j in 0..*c2 {
-                            let col: Vec<Poly> = (0..*r2).map(|k| c[k * c2 + j].clone()).collect();
-                            out.push(dot(&a[i * cols..(i + 1) * cols], &col));
+                            let col: Vec<A::E> = (0..*r2).map(|k| c[k * c2 + j].clone()).collect();
+                            out.push(dot(self.alg, &a[i * cols..(i + 1) * cols], &col));
                         }
                     }
                     Value::Matrix { rows: *rows, cols: *c2, data: out }
@@ -378,9 +470,9 @@ impl Evaluator<'_, '_> {
         }
     }
 
-    fn method(&mut self, m: &syn::ExprMethodCall) -> Value {
+    fn method(&mut self, m: &syn::ExprMethodCall) -> Value<A::E> {
         let recv = self.expr(&m.receiver);
-        let args: Vec<Value> = m.args.iter().map(|a| self.expr(a)).collect();
+        let args: Vec<Value<A::E>> = m.args.iter().map(|a| self.expr(a)).collect();
         let name = m.method.to_string();
         if matches!(recv, Value::Poison) || args.iter().any(|a| matches!(a, Value::Poison)) {
             return Value::Poison;
@@ -395,21 +487,26 @@ impl Evaluator<'_, '_> {
             return self.error(m, format!("`{name}` takes {arity} argument(s)"));
         }
         match (name.as_str(), &recv, args.first()) {
-            ("dot", Value::Vector(a), Some(Value::Vector(c))) if a.len() == c.len() => Value::Scalar(dot(a, c)),
+            ("dot", Value::Vector(a), Some(Value::Vector(c))) if a.len() == c.len() => Value::Scalar(dot(self.alg, a, c)),
             ("dot", _, Some(other)) => self.error(m, format!("`dot` needs two vectors of the same length, found {} and {}", recv.type_name(), other.type_name())),
-            ("cross", Value::Vector(a), Some(Value::Vector(c))) if a.len() == 3 && c.len() == 3 => Value::Vector(vec![
-                &(&a[1] * &c[2]) - &(&a[2] * &c[1]),
-                &(&a[2] * &c[0]) - &(&a[0] * &c[2]),
-                &(&a[0] * &c[1]) - &(&a[1] * &c[0]),
-            ]),
+            ("cross", Value::Vector(a), Some(Value::Vector(c))) if a.len() == 3 && c.len() == 3 => {
+                let mut minor = |i: usize, j: usize| {
+                    let (l, r) = (self.alg.mul(&a[i], &c[j]), self.alg.mul(&a[j], &c[i]));
+                    self.alg.sub(&l, &r)
+                };
+                Value::Vector(vec![minor(1, 2), minor(2, 0), minor(0, 1)])
+            }
             ("cross", _, Some(other)) => self.error(m, format!("`cross` needs two 3-vectors, found {} and {}", recv.type_name(), other.type_name())),
             ("powi", Value::Scalar(a), Some(_)) => match m.args.first().and_then(int_literal) {
-                Some(n) => Value::Scalar(a.pow(n)),
+                Some(n) => Value::Scalar(self.alg.pow(a, n)),
                 None => self.error(&m.args, "`powi` takes a non-negative integer literal"),
             },
             ("powi", _, _) => self.error(m, format!("`powi` needs a scalar, found {}", recv.type_name())),
-            ("norm_squared", Value::Vector(a), None) => Value::Scalar(dot(a, a)),
-            ("sum", Value::Vector(a), None) => Value::Scalar(a.iter().fold(Poly::zero(), |acc, p| &acc + p)),
+            ("norm_squared", Value::Vector(a), None) => Value::Scalar(dot(self.alg, a, a)),
+            ("sum", Value::Vector(a), None) => {
+                let zero = self.alg.constant(0.0);
+                Value::Scalar(a.iter().fold(zero, |acc, p| self.alg.add(&acc, p)))
+            }
             ("transpose", Value::Matrix { rows, cols, data }, None) => {
                 let mut out = Vec::with_capacity(data.len());
                 for j in 0..*cols {
@@ -425,7 +522,7 @@ impl Evaluator<'_, '_> {
         }
     }
 
-    fn call(&mut self, c: &syn::ExprCall) -> Value {
+    fn call(&mut self, c: &syn::ExprCall) -> Value<A::E> {
         let syn::Expr::Path(path) = &*c.func else {
             return self.error(&c.func, "expected a function name");
         };
@@ -435,21 +532,32 @@ impl Evaluator<'_, '_> {
         if name == "grad" {
             return self.grad(c);
         }
-        let args: Vec<Value> = c.args.iter().map(|a| self.expr(a)).collect();
+        let args: Vec<Value<A::E>> = c.args.iter().map(|a| self.expr(a)).collect();
         if args.iter().any(|a| matches!(a, Value::Poison)) {
             return Value::Poison;
         }
         match (name.as_str(), args.as_slice()) {
             ("skew", [Value::Vector(v)]) if v.len() == 3 => {
-                let z = Poly::zero();
+                let z = self.alg.constant(0.0);
+                let neg: Vec<A::E> = v.iter().map(|e| self.alg.neg(e)).collect();
                 Value::Matrix {
                     rows: 3,
                     cols: 3,
-                    data: vec![z.clone(), -&v[2], v[1].clone(), v[2].clone(), z.clone(), -&v[0], -&v[1], v[0].clone(), z],
+                    data: vec![
+                        z.clone(),
+                        neg[2].clone(),
+                        v[1].clone(),
+                        v[2].clone(),
+                        z.clone(),
+                        neg[0].clone(),
+                        neg[1].clone(),
+                        v[0].clone(),
+                        z,
+                    ],
                 }
             }
             ("skew", [a]) => self.error(c, format!("`skew` needs a 3-vector, found {}", a.type_name())),
-            ("rotation", [Value::Vector(q)]) if q.len() == 4 => Value::Matrix { rows: 3, cols: 3, data: rotation(q) },
+            ("rotation", [Value::Vector(q)]) if q.len() == 4 => Value::Matrix { rows: 3, cols: 3, data: rotation(self.alg, q) },
             ("rotation", [a]) => self.error(c, format!("`rotation` needs a quaternion (4-vector), found {}", a.type_name())),
             ("skew" | "rotation", _) => self.error(c, format!("`{name}` takes one argument")),
             _ => self.error(&c.func, format!("unknown function `{name}`; supported: skew, rotation, grad")),
@@ -457,7 +565,7 @@ impl Evaluator<'_, '_> {
     }
 
     /// `grad(e, x)`: exact gradient of a scalar expression with respect to an unknown symbol.
-    fn grad(&mut self, c: &syn::ExprCall) -> Value {
+    fn grad(&mut self, c: &syn::ExprCall) -> Value<A::E> {
         if c.args.len() != 2 {
             return self.error(c, "`grad` takes two arguments: `grad(scalar_expr, unknown)`");
         }
@@ -475,15 +583,15 @@ impl Evaluator<'_, '_> {
             return self.error(target, "the second argument of `grad` must name an unknown");
         };
         match e {
-            Value::Scalar(p) if vars.len() == 1 => Value::Scalar(p.diff(vars[0])),
-            Value::Scalar(p) => Value::Vector(vars.iter().map(|&v| p.diff(v)).collect()),
+            Value::Scalar(p) if vars.len() == 1 => Value::Scalar(self.alg.diff(&p, vars[0])),
+            Value::Scalar(p) => Value::Vector(vars.iter().map(|&v| self.alg.diff(&p, v)).collect()),
             Value::Poison => Value::Poison,
             other => self.error(&c.args[0], format!("`grad` needs a scalar expression, found {}", other.type_name())),
         }
     }
 
-    fn array(&mut self, a: &syn::ExprArray) -> Value {
-        let elems: Vec<Value> = a.elems.iter().map(|e| self.expr(e)).collect();
+    fn array(&mut self, a: &syn::ExprArray) -> Value<A::E> {
+        let elems: Vec<Value<A::E>> = a.elems.iter().map(|e| self.expr(e)).collect();
         if elems.iter().any(|e| matches!(e, Value::Poison)) {
             return Value::Poison;
         }
@@ -501,7 +609,7 @@ impl Evaluator<'_, '_> {
         self.error(a, "an array holds scalars (a vector) or vectors of one length (matrix rows)")
     }
 
-    fn index(&mut self, i: &syn::ExprIndex) -> Value {
+    fn index(&mut self, i: &syn::ExprIndex) -> Value<A::E> {
         let base = self.expr(&i.expr);
         let idx: Vec<Option<usize>> = match &*i.index {
             syn::Expr::Tuple(t) => t.elems.iter().map(|e| int_literal(e).map(|n| n as usize)).collect(),
@@ -521,27 +629,31 @@ impl Evaluator<'_, '_> {
     }
 }
 
-fn dot(a: &[Poly], b: &[Poly]) -> Poly {
-    a.iter().zip(b).fold(Poly::zero(), |acc, (x, y)| &acc + &(x * y))
+fn dot<A: Algebra>(alg: &mut A, a: &[A::E], b: &[A::E]) -> A::E {
+    let zero = alg.constant(0.0);
+    a.iter().zip(b).fold(zero, |acc, (x, y)| {
+        let m = alg.mul(x, y);
+        alg.add(&acc, &m)
+    })
 }
 
 /// The unnormalized rotation matrix of `q = [w, x, y, z]`, row-major; entries are quadratic in
 /// `q` and equal the rotation for unit `q`.
-fn rotation(q: &[Poly]) -> Vec<Poly> {
-    let m = |a: usize, b: usize| &q[a] * &q[b];
-    let two = |p: Poly| p.scale(2.0);
+fn rotation<A: Algebra>(alg: &mut A, q: &[A::E]) -> Vec<A::E> {
+    let mut m = |a: usize, b: usize| alg.mul(&q[a], &q[b]);
     let (ww, xx, yy, zz) = (m(0, 0), m(1, 1), m(2, 2), m(3, 3));
-    vec![
-        &(&ww + &xx) - &(&yy + &zz),
-        two(&m(1, 2) - &m(0, 3)),
-        two(&m(1, 3) + &m(0, 2)),
-        two(&m(1, 2) + &m(0, 3)),
-        &(&ww - &xx) + &(&yy - &zz),
-        two(&m(2, 3) - &m(0, 1)),
-        two(&m(1, 3) - &m(0, 2)),
-        two(&m(2, 3) + &m(0, 1)),
-        &(&ww - &xx) - &(&yy - &zz),
-    ]
+    let (xy, wz, xz, wy, yz, wx) = (m(1, 2), m(0, 3), m(1, 3), m(0, 2), m(2, 3), m(0, 1));
+    // Sums `s_..` and differences `d_..` of the products.
+    let mut add = |a: &A::E, b: &A::E| alg.add(a, b);
+    let (s_wwxx, s_yyzz) = (add(&ww, &xx), add(&yy, &zz));
+    let (s_xywz, s_xzwy, s_yzwx) = (add(&xy, &wz), add(&xz, &wy), add(&yz, &wx));
+    let mut sub = |a: &A::E, b: &A::E| alg.sub(a, b);
+    let (d_wwxx, d_yyzz) = (sub(&ww, &xx), sub(&yy, &zz));
+    let (d_xywz, d_xzwy, d_yzwx) = (sub(&xy, &wz), sub(&xz, &wy), sub(&yz, &wx));
+    let r00 = sub(&s_wwxx, &s_yyzz);
+    let (r11, r22) = (alg.add(&d_wwxx, &d_yyzz), alg.sub(&d_wwxx, &d_yyzz));
+    let mut two = |p: &A::E| alg.scale(p, 2.0);
+    vec![r00, two(&d_xywz), two(&s_xzwy), two(&s_xywz), r11, two(&d_yzwx), two(&d_xzwy), two(&s_yzwx), r22]
 }
 
 fn literal(lit: &syn::Lit) -> Option<f64> {
@@ -556,13 +668,6 @@ fn int_literal(e: &syn::Expr) -> Option<u32> {
     match e {
         syn::Expr::Lit(syn::ExprLit { lit: syn::Lit::Int(i), .. }) => i.base10_parse().ok(),
         syn::Expr::Paren(p) => int_literal(&p.expr),
-        _ => None,
-    }
-}
-
-fn const_of(v: &Value) -> Option<f64> {
-    match v {
-        Value::Scalar(p) => p.as_constant(),
         _ => None,
     }
 }

@@ -1199,6 +1199,319 @@ pub mod grps {
             j[2] = t19;
             j[3] = t20;
         }
+        /// Row kernel from the row's parameters `p` (the declaration unexpanded), one path per lane: residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d`.
+        #[inline(always)]
+        #[allow(clippy::all, unused_variables)]
+        fn __row_param_lanes<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            p: &[S; 12],
+            dp: &[S; 12],
+            f: &mut [S; 1],
+            j: &mut [S; 8],
+            d: &mut [S; 1],
+        ) {
+            let x_q_0 = x[0];
+            let x_q_1 = x[1];
+            let x_q_2 = x[2];
+            let x_q_3 = x[3];
+            let x_t_0 = x[4];
+            let x_t_1 = x[5];
+            let x_t_2 = x[6];
+            let x_s = x[7];
+            let p_row0_f_0 = p[0];
+            let p_row0_f_1 = p[1];
+            let p_row0_f_2 = p[2];
+            let p_row0_v_0 = p[3];
+            let p_row0_v_1 = p[4];
+            let p_row0_v_2 = p[5];
+            let p_row0_fp_0 = p[6];
+            let p_row0_fp_1 = p[7];
+            let p_row0_fp_2 = p[8];
+            let p_row0_vp_0 = p[9];
+            let p_row0_vp_1 = p[10];
+            let p_row0_vp_2 = p[11];
+            let dp_row0_f_0 = dp[0];
+            let dp_row0_f_1 = dp[1];
+            let dp_row0_f_2 = dp[2];
+            let dp_row0_v_0 = dp[3];
+            let dp_row0_v_1 = dp[4];
+            let dp_row0_v_2 = dp[5];
+            let dp_row0_fp_0 = dp[6];
+            let dp_row0_fp_1 = dp[7];
+            let dp_row0_fp_2 = dp[8];
+            let dp_row0_vp_0 = dp[9];
+            let dp_row0_vp_1 = dp[10];
+            let dp_row0_vp_2 = dp[11];
+            let t20 = x_q_0 * x_q_0;
+            let t21 = x_q_1 * x_q_1;
+            let t22 = x_q_2 * x_q_2;
+            let t23 = x_q_3 * x_q_3;
+            let t24 = x_q_1 * x_q_2;
+            let t25 = x_q_0 * x_q_3;
+            let t26 = x_q_1 * x_q_3;
+            let t27 = x_q_0 * x_q_2;
+            let t28 = x_q_2 * x_q_3;
+            let t29 = x_q_0 * x_q_1;
+            let t30 = t20 + t21;
+            let t31 = t22 + t23;
+            let t32 = t24 + t25;
+            let t33 = t26 + t27;
+            let t34 = t28 + t29;
+            let t35 = t20 - t21;
+            let t36 = t22 - t23;
+            let t37 = t24 - t25;
+            let t38 = t26 - t27;
+            let t39 = t28 - t29;
+            let t40 = t30 - t31;
+            let t41 = t35 + t36;
+            let t42 = t35 - t36;
+            let t44 = t37.scale(2.0);
+            let t45 = t33.scale(2.0);
+            let t46 = t32.scale(2.0);
+            let t47 = t39.scale(2.0);
+            let t48 = t38.scale(2.0);
+            let t49 = t34.scale(2.0);
+            let t52 = p_row0_fp_1 * t44;
+            let t53 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, t40, t52);
+            let t55 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, t45, t53);
+            let t57 = p_row0_fp_1 * t41;
+            let t58 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, t46, t57);
+            let t60 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, t47, t58);
+            let t62 = p_row0_fp_1 * t49;
+            let t63 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, t48, t62);
+            let t65 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, t42, t63);
+            let t67 = p_row0_f_2 * t60;
+            let t68 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_1, t65, t67);
+            let t70 = p_row0_f_0 * t65;
+            let t71 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_2, t55, t70);
+            let t73 = p_row0_f_1 * t55;
+            let t74 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_0, t60, t73);
+            let t76 = x_t_1 * t71;
+            let t77 = ::simhc::lanes::Lanes::mul_add(x_t_0, t68, t76);
+            let t79 = ::simhc::lanes::Lanes::mul_add(x_t_2, t74, t77);
+            let t80 = -p_row0_vp_0;
+            let t81 = -p_row0_vp_1;
+            let t82 = -p_row0_vp_2;
+            let t84 = p_row0_fp_2 * p_row0_vp_1;
+            let t85 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_1, t82, t84);
+            let t87 = p_row0_fp_2 * t80;
+            let t88 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, p_row0_vp_2, t87);
+            let t90 = p_row0_fp_1 * p_row0_vp_0;
+            let t91 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, t81, t90);
+            let t93 = t44 * t88;
+            let t94 = ::simhc::lanes::Lanes::mul_add(t40, t85, t93);
+            let t96 = ::simhc::lanes::Lanes::mul_add(t45, t91, t94);
+            let t98 = t41 * t88;
+            let t99 = ::simhc::lanes::Lanes::mul_add(t46, t85, t98);
+            let t101 = ::simhc::lanes::Lanes::mul_add(t47, t91, t99);
+            let t103 = t49 * t88;
+            let t104 = ::simhc::lanes::Lanes::mul_add(t48, t85, t103);
+            let t106 = ::simhc::lanes::Lanes::mul_add(t42, t91, t104);
+            let t108 = p_row0_f_1 * t101;
+            let t109 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t96, t108);
+            let t111 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t106, t109);
+            let t113 = ::simhc::lanes::Lanes::neg_mul_add(x_s, t111, t79);
+            let t114 = -p_row0_v_0;
+            let t115 = -p_row0_v_1;
+            let t116 = -p_row0_v_2;
+            let t118 = p_row0_v_1 * t65;
+            let t119 = ::simhc::lanes::Lanes::mul_add(t60, t116, t118);
+            let t121 = t65 * t114;
+            let t122 = ::simhc::lanes::Lanes::mul_add(p_row0_v_2, t55, t121);
+            let t124 = p_row0_v_0 * t60;
+            let t125 = ::simhc::lanes::Lanes::mul_add(t55, t115, t124);
+            let t127 = p_row0_f_1 * t122;
+            let t128 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t119, t127);
+            let t130 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t125, t128);
+            let t131 = t113 + t130;
+            let t139 = p_row0_f_1 * p_row0_v_2;
+            let t140 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t115, t139);
+            let t141 = p_row0_f_0 * p_row0_v_1;
+            let t142 = ::simhc::lanes::Lanes::mul_add(p_row0_f_1, t114, t141);
+            let t143 = p_row0_f_0 * t116;
+            let t144 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, p_row0_v_0, t143);
+            let t146 = -t111;
+            let t147 = -x_s;
+            let t148 = p_row0_f_2 * t147;
+            let t149 = p_row0_f_1 * t147;
+            let t150 = p_row0_f_0 * t147;
+            let t160 = -x_t_2;
+            let t162 = ::simhc::lanes::Lanes::mul_add(p_row0_f_1, t160, t140);
+            let t164 = ::simhc::lanes::Lanes::mul_add(x_t_2, p_row0_f_0, t144);
+            let t165 = -x_t_1;
+            let t167 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t165, t142);
+            let t169 = ::simhc::lanes::Lanes::mul_add(x_t_1, p_row0_f_2, t162);
+            let t170 = -x_t_0;
+            let t172 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t170, t164);
+            let t174 = ::simhc::lanes::Lanes::mul_add(x_t_0, p_row0_f_1, t167);
+            let t175 = p_row0_fp_2 * t174;
+            let t176 = ::simhc::lanes::Lanes::mul_add(t91, t148, t175);
+            let t177 = p_row0_fp_1 * t174;
+            let t178 = ::simhc::lanes::Lanes::mul_add(t88, t148, t177);
+            let t179 = p_row0_fp_0 * t174;
+            let t180 = ::simhc::lanes::Lanes::mul_add(t85, t148, t179);
+            let t181 = p_row0_fp_2 * t172;
+            let t182 = ::simhc::lanes::Lanes::mul_add(t91, t149, t181);
+            let t183 = p_row0_fp_1 * t172;
+            let t184 = ::simhc::lanes::Lanes::mul_add(t88, t149, t183);
+            let t185 = p_row0_fp_0 * t172;
+            let t186 = ::simhc::lanes::Lanes::mul_add(t85, t149, t185);
+            let t187 = p_row0_fp_2 * t169;
+            let t188 = ::simhc::lanes::Lanes::mul_add(t91, t150, t187);
+            let t189 = p_row0_fp_1 * t169;
+            let t190 = ::simhc::lanes::Lanes::mul_add(t88, t150, t189);
+            let t191 = p_row0_fp_0 * t169;
+            let t192 = ::simhc::lanes::Lanes::mul_add(t85, t150, t191);
+            let t193 = t178.scale(2.0);
+            let t194 = t180.scale(2.0);
+            let t195 = t182.scale(2.0);
+            let t196 = t186.scale(2.0);
+            let t197 = t188.scale(2.0);
+            let t198 = t190.scale(2.0);
+            let t199 = -t176;
+            let t200 = t176 + t184;
+            let t201 = t184 + t199;
+            let t202 = -t192;
+            let t203 = -t195;
+            let t204 = -t194;
+            let t205 = -t198;
+            let t206 = -t201;
+            let t207 = -t200;
+            let t208 = t193 + t195;
+            let t209 = t193 + t203;
+            let t210 = t194 + t197;
+            let t211 = t197 + t204;
+            let t212 = t196 + t198;
+            let t213 = t196 + t205;
+            let t214 = t201 + t202;
+            let t215 = t202 + t206;
+            let t216 = t192 + t200;
+            let t217 = t192 + t207;
+            let t222 = x_q_2 * t211;
+            let t223 = ::simhc::lanes::Lanes::mul_add(x_q_1, t209, t222);
+            let t224 = x_q_0 * t211;
+            let t225 = ::simhc::lanes::Lanes::mul_add(x_q_3, t208, t224);
+            let t226 = x_q_3 * t210;
+            let t227 = ::simhc::lanes::Lanes::mul_add(x_q_0, t209, t226);
+            let t228 = x_q_1 * t210;
+            let t229 = ::simhc::lanes::Lanes::mul_add(x_q_2, t208, t228);
+            let t231 = ::simhc::lanes::Lanes::mul_add(x_q_3, t213, t223);
+            let t233 = ::simhc::lanes::Lanes::mul_add(x_q_0, t213, t229);
+            let t235 = ::simhc::lanes::Lanes::mul_add(x_q_2, t212, t227);
+            let t237 = ::simhc::lanes::Lanes::mul_add(x_q_1, t212, t225);
+            let t238 = x_q_3 * t215;
+            let t239 = t233 + t238;
+            let t240 = t238 + t239;
+            let t241 = x_q_2 * t214;
+            let t242 = t237 + t241;
+            let t243 = t241 + t242;
+            let t244 = x_q_1 * t217;
+            let t245 = t235 + t244;
+            let t246 = t244 + t245;
+            let t247 = x_q_0 * t216;
+            let t248 = t231 + t247;
+            let t249 = t247 + t248;
+            let t263 = t44 * dp_row0_fp_1;
+            let t264 = ::simhc::lanes::Lanes::mul_add(t40, dp_row0_fp_0, t263);
+            let t266 = ::simhc::lanes::Lanes::mul_add(t45, dp_row0_fp_2, t264);
+            let t268 = t41 * dp_row0_fp_1;
+            let t269 = ::simhc::lanes::Lanes::mul_add(t46, dp_row0_fp_0, t268);
+            let t271 = ::simhc::lanes::Lanes::mul_add(t47, dp_row0_fp_2, t269);
+            let t273 = t49 * dp_row0_fp_1;
+            let t274 = ::simhc::lanes::Lanes::mul_add(t48, dp_row0_fp_0, t273);
+            let t276 = ::simhc::lanes::Lanes::mul_add(t42, dp_row0_fp_2, t274);
+            let t278 = p_row0_f_1 * t276;
+            let t279 = ::simhc::lanes::Lanes::mul_add(t65, dp_row0_f_1, t278);
+            let t281 = p_row0_f_2 * t271;
+            let t282 = ::simhc::lanes::Lanes::mul_add(t60, dp_row0_f_2, t281);
+            let t283 = t279 - t282;
+            let t285 = p_row0_f_2 * t266;
+            let t286 = ::simhc::lanes::Lanes::mul_add(t55, dp_row0_f_2, t285);
+            let t288 = p_row0_f_0 * t276;
+            let t289 = ::simhc::lanes::Lanes::mul_add(t65, dp_row0_f_0, t288);
+            let t290 = t286 - t289;
+            let t292 = p_row0_f_0 * t271;
+            let t293 = ::simhc::lanes::Lanes::mul_add(t60, dp_row0_f_0, t292);
+            let t295 = p_row0_f_1 * t266;
+            let t296 = ::simhc::lanes::Lanes::mul_add(t55, dp_row0_f_1, t295);
+            let t297 = t293 - t296;
+            let t299 = x_t_1 * t290;
+            let t300 = ::simhc::lanes::Lanes::mul_add(x_t_0, t283, t299);
+            let t302 = ::simhc::lanes::Lanes::mul_add(x_t_2, t297, t300);
+            let t303 = -dp_row0_vp_0;
+            let t304 = -dp_row0_vp_1;
+            let t305 = -dp_row0_vp_2;
+            let t307 = p_row0_fp_1 * t305;
+            let t308 = ::simhc::lanes::Lanes::mul_add(t82, dp_row0_fp_1, t307);
+            let t310 = p_row0_fp_2 * dp_row0_vp_1;
+            let t311 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_1, dp_row0_fp_2, t310);
+            let t312 = t308 + t311;
+            let t314 = p_row0_fp_0 * dp_row0_vp_2;
+            let t315 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_2, dp_row0_fp_0, t314);
+            let t317 = p_row0_fp_2 * t303;
+            let t318 = ::simhc::lanes::Lanes::mul_add(t80, dp_row0_fp_2, t317);
+            let t319 = t315 + t318;
+            let t321 = p_row0_fp_0 * t304;
+            let t322 = ::simhc::lanes::Lanes::mul_add(t81, dp_row0_fp_0, t321);
+            let t324 = p_row0_fp_1 * dp_row0_vp_0;
+            let t325 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_0, dp_row0_fp_1, t324);
+            let t326 = t322 + t325;
+            let t328 = t44 * t319;
+            let t329 = ::simhc::lanes::Lanes::mul_add(t40, t312, t328);
+            let t331 = ::simhc::lanes::Lanes::mul_add(t45, t326, t329);
+            let t333 = t41 * t319;
+            let t334 = ::simhc::lanes::Lanes::mul_add(t46, t312, t333);
+            let t336 = ::simhc::lanes::Lanes::mul_add(t47, t326, t334);
+            let t338 = t49 * t319;
+            let t339 = ::simhc::lanes::Lanes::mul_add(t48, t312, t338);
+            let t341 = ::simhc::lanes::Lanes::mul_add(t42, t326, t339);
+            let t343 = p_row0_f_0 * t331;
+            let t344 = ::simhc::lanes::Lanes::mul_add(t96, dp_row0_f_0, t343);
+            let t346 = p_row0_f_1 * t336;
+            let t347 = ::simhc::lanes::Lanes::mul_add(t101, dp_row0_f_1, t346);
+            let t348 = t344 + t347;
+            let t350 = p_row0_f_2 * t341;
+            let t351 = ::simhc::lanes::Lanes::mul_add(t106, dp_row0_f_2, t350);
+            let t352 = t348 + t351;
+            let t354 = ::simhc::lanes::Lanes::neg_mul_add(x_s, t352, t302);
+            let t355 = -dp_row0_v_0;
+            let t356 = -dp_row0_v_1;
+            let t357 = -dp_row0_v_2;
+            let t359 = t60 * t357;
+            let t360 = ::simhc::lanes::Lanes::mul_add(t116, t271, t359);
+            let t362 = p_row0_v_1 * t276;
+            let t363 = ::simhc::lanes::Lanes::mul_add(t65, dp_row0_v_1, t362);
+            let t364 = t360 + t363;
+            let t366 = p_row0_v_2 * t266;
+            let t367 = ::simhc::lanes::Lanes::mul_add(t55, dp_row0_v_2, t366);
+            let t369 = t65 * t355;
+            let t370 = ::simhc::lanes::Lanes::mul_add(t114, t276, t369);
+            let t371 = t367 + t370;
+            let t373 = t55 * t356;
+            let t374 = ::simhc::lanes::Lanes::mul_add(t115, t266, t373);
+            let t376 = p_row0_v_0 * t271;
+            let t377 = ::simhc::lanes::Lanes::mul_add(t60, dp_row0_v_0, t376);
+            let t378 = t374 + t377;
+            let t380 = p_row0_f_0 * t364;
+            let t381 = ::simhc::lanes::Lanes::mul_add(t119, dp_row0_f_0, t380);
+            let t383 = p_row0_f_1 * t371;
+            let t384 = ::simhc::lanes::Lanes::mul_add(t122, dp_row0_f_1, t383);
+            let t385 = t381 + t384;
+            let t387 = p_row0_f_2 * t378;
+            let t388 = ::simhc::lanes::Lanes::mul_add(t125, dp_row0_f_2, t387);
+            let t389 = t385 + t388;
+            let t390 = t354 + t389;
+            f[0] = t131;
+            j[0] = t249;
+            j[1] = t246;
+            j[2] = t243;
+            j[3] = t240;
+            j[4] = t68;
+            j[5] = t71;
+            j[6] = t74;
+            j[7] = t146;
+            d[0] = t390;
+        }
     }
     /// `grps7`: 8 equations in 8 unknowns with 84 parameters (7 rows).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -9357,6 +9670,30 @@ pub mod grps {
                 return;
             };
             __SimhcRowKernels::__global_lanes(x, f, j);
+        }
+        const PARAM_LANES: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
+            12,
+            12,
+        ));
+        #[inline(always)]
+        fn lanes_row_params<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            p: &[S],
+            dp: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 12]>::try_from(p),
+                <&[S; 12]>::try_from(dp),
+                <&mut [S; 1]>::try_from(f),
+                <&mut [S; 8]>::try_from(j),
+                <&mut [S; 1]>::try_from(d),
+            ) else {
+                return;
+            };
+            __SimhcRowKernels::__row_param_lanes(x, p, dp, f, j, d);
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             7,
@@ -18669,6 +19006,30 @@ pub mod grps {
                 return;
             };
             __SimhcRowKernels::__global_lanes(x, f, j);
+        }
+        const PARAM_LANES: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
+            12,
+            12,
+        ));
+        #[inline(always)]
+        fn lanes_row_params<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            p: &[S],
+            dp: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 12]>::try_from(p),
+                <&[S; 12]>::try_from(dp),
+                <&mut [S; 1]>::try_from(f),
+                <&mut [S; 8]>::try_from(j),
+                <&mut [S; 1]>::try_from(d),
+            ) else {
+                return;
+            };
+            __SimhcRowKernels::__row_param_lanes(x, p, dp, f, j, d);
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             8,

@@ -307,8 +307,9 @@ fn aligned_target_has_the_same_solutions() {
 /// The batch tracker (one path per SIMD lane) follows the same paths as the one-path tracker:
 /// path by path the same end points, and a path's result does not depend on the other paths in
 /// its batch (bit for bit). Checked for every instruction set this CPU runs (8 paths per
-/// operation with AVX-512, 4 with AVX2, 4 unfused on the baseline). The all-roots solver gives
-/// the same real solutions either way.
+/// operation with AVX-512, 4 with AVX2, 4 unfused on the baseline), and for both row kernels
+/// (from the coefficients of the expansion, and from the parameters, unexpanded). The all-roots
+/// solver gives the same real solutions either way.
 #[test]
 fn batch_tracking_agrees_with_one_path_at_a_time() {
     use simhc::all_roots::{all_roots_tracker, CoefficientParameterHomotopy};
@@ -330,13 +331,15 @@ fn batch_tracking_agrees_with_one_path_at_a_time() {
             aligned,
         ))
         .expect("GRPS7 coefficients are polynomial along the segment");
-        let system = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly())
+        let coefficients = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly())
             .expect("GRPS7 has path-lane code");
+        let parameters = LaneSystem::<Grps7, 8, { Grps7::NC }>::from_parameter_path::<84>(&h.parameter_path().param_poly())
+            .expect("GRPS7 has a parameter row kernel");
         let all: Vec<usize> = (0..start.solutions.len()).collect();
         let one_path: Vec<_> = start.solutions.iter().map(|x0| track(&h, x0, &opts)).collect();
-        for &isa in &isas {
+        for (&isa, (kernel, system)) in isas.iter().flat_map(|isa| [("coefficients", &coefficients), ("parameters", &parameters)].map(|k| (isa, k))) {
             let run = |idx: &[usize]| {
-                track_batch_with::<Grps7, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &start.solutions, idx, &opts)
+                track_batch_with::<Grps7, _, 8, 84, { Grps7::NC }>(isa, system, &h, &start.solutions, idx, &opts)
                     .expect("Heun + adaptive is supported on an available instruction set")
             };
             let batch = run(&all);
@@ -351,21 +354,22 @@ fn batch_tracking_agrees_with_one_path_at_a_time() {
                     }
                 }
             }
-            println!("{isa:?} seed {seed}: {both} paths tracked by both, {same} with the same end point");
-            assert!(both >= 136, "{isa:?} seed {seed}: {both}");
-            assert!(same + 3 >= both, "{isa:?} seed {seed}: {same} of {both} agree");
+            println!("{isa:?} {kernel} seed {seed}: {both} paths tracked by both, {same} with the same end point");
+            assert!(both >= 136, "{isa:?} {kernel} seed {seed}: {both}");
+            assert!(same + 3 >= both, "{isa:?} {kernel} seed {seed}: {same} of {both} agree");
             let subset = [7usize, 3, 139, 64, 0, 99];
             let again = run(&subset);
             for (k, &i) in subset.iter().enumerate() {
-                assert_eq!(again[k], batch[i], "{isa:?} seed {seed} path {i}: depends on its batch");
+                assert_eq!(again[k], batch[i], "{isa:?} {kernel} seed {seed} path {i}: depends on its batch");
             }
         }
 
         // The solver with one path at a time, and with each instruction set forced.
         let a = solve_grps7(&target, &AllRootsOptions::default());
         let one_by_one = AllRootsOptions { batch: false, ..AllRootsOptions::default() };
+        let coefficient_rows = AllRootsOptions { param_lanes: false, ..AllRootsOptions::default() };
         let forced = isas.iter().map(|&isa| AllRootsOptions { lane_isa: Some(isa), ..AllRootsOptions::default() });
-        for (k, options) in std::iter::once(one_by_one).chain(forced).enumerate() {
+        for (k, options) in [one_by_one, coefficient_rows].into_iter().chain(forced).enumerate() {
             let b = solve_grps7(&target, &options);
             assert_eq!(a.real.len(), b.real.len(), "seed {seed} run {k}: real solution counts");
             for s in &a.real {

@@ -542,6 +542,17 @@ impl<P, S: Scalar, const NP: usize> ParameterHomotopy<P, S, NP> {
         p
     }
 
+    /// `p(t)` as a polynomial in `t`, lowest degree first: `[p0, p1 - p0]`, or with a bend `q`
+    /// `[p0, p1 - p0 + q, -q]`.
+    pub fn param_poly(&self) -> Vec<SVector<S, NP>> {
+        let slope = self.p1 - self.p0;
+        if self.bent {
+            vec![self.p0, slope + self.bend, -self.bend]
+        } else {
+            vec![self.p0, slope]
+        }
+    }
+
     /// `dp/dt (t)`.
     #[inline]
     pub fn params_dt(&self, t: f64) -> SVector<S, NP> {

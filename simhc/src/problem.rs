@@ -125,6 +125,29 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
         let _ = (x, c, dc, f, j, d);
     }
 
+    /// `Some((row_len, k))` when [`CoefficientForm::lanes_row_params`] is generated (with
+    /// [`CoefficientForm::PATH_LANES`]): row `r`'s parameters are `p[r * row_len ..][..row_len]`,
+    /// followed after all rows by `k - row_len` global parameters.
+    const PARAM_LANES: Option<(usize, usize)> = None;
+
+    /// [`CoefficientForm::lanes_row`] from the row's *parameters* instead of its coefficients:
+    /// from the unknowns `x`, the row's `k` parameters `p` (its own, then the globals) and a
+    /// direction `dp` of them, the residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d`
+    /// (`dH/dt` for `dp = dp/dt`). Generated from the declaration without expanding it, so it
+    /// keeps shared structure (`rotation(q)` once) that the coefficient form multiplies out.
+    /// Wrong lengths leave the outputs untouched. The default does nothing.
+    #[inline(always)]
+    fn lanes_row_params<L: crate::lanes::Lanes>(
+        x: &[L; NX],
+        p: &[L],
+        dp: &[L],
+        f: &mut [L],
+        j: &mut [L],
+        d: &mut [L],
+    ) {
+        let _ = (x, p, dp, f, j, d);
+    }
+
     /// The global equations' residuals `f` (`NF - rows * epr`) and Jacobian rows `j`
     /// (row-major), one path per lane of `L`. The default does nothing.
     #[inline(always)]

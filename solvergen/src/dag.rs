@@ -97,6 +97,7 @@ impl Dag {
     pub fn mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
         match (self.const_value(a), self.const_value(b)) {
             (Some(x), Some(y)) => self.constant(x * y),
+            (Some(c), _) | (_, Some(c)) if c == 0.0 => self.constant(0.0),
             (Some(c), _) if c == 1.0 => b,
             (_, Some(c)) if c == 1.0 => a,
             (Some(c), _) if c == -1.0 => self.intern(Node::Neg(b)),
@@ -273,5 +274,283 @@ impl Dag {
             .zip(&live)
             .filter(|(n, &l)| l && matches!(n, Node::Add(..) | Node::Sub(..) | Node::Mul(..) | Node::Neg(..)))
             .count()
+    }
+}
+
+/// Differentiation on the DAG (automatic differentiation of straight-line code).
+impl Dag {
+    /// Difference, folding zeros.
+    pub fn sub(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.const_value(a), self.const_value(b)) {
+            (Some(x), Some(y)) => self.constant(x - y),
+            (_, Some(z)) if z == 0.0 => a,
+            (Some(z), _) if z == 0.0 => self.neg(b),
+            _ => self.intern(Node::Sub(a, b)),
+        }
+    }
+
+    /// Negation, folding constants and double negation.
+    pub fn neg(&mut self, a: NodeId) -> NodeId {
+        match (self.const_value(a), &self.nodes[a.0 as usize]) {
+            (Some(x), _) => self.constant(-x),
+            (None, Node::Neg(inner)) => *inner,
+            _ => self.intern(Node::Neg(a)),
+        }
+    }
+
+    /// Which of the nodes `0 ..= root` the value of `root` depends on and that depend on a
+    /// leaf for which `leaf` holds.
+    fn depends(&self, root: NodeId, leaf: impl Fn(&Node) -> bool) -> Vec<bool> {
+        let live = self.reachable(&[root]);
+        let mut dep = vec![false; root.0 as usize + 1];
+        for i in 0..=root.0 as usize {
+            if !live[i] {
+                continue;
+            }
+            dep[i] = match self.nodes[i] {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => dep[a.0 as usize] || dep[b.0 as usize],
+                Node::Neg(a) => dep[a.0 as usize],
+                ref n => leaf(n),
+            };
+        }
+        dep
+    }
+
+    /// Forward mode: the derivative of `root` when each leaf `l` moves with `seed(l)` (`None`:
+    /// fixed), e.g. `x[k] -> 1` for `d/dx_k`, `p[i] -> dp[i]` for `dF/dp * dp`.
+    pub fn derivative(&mut self, root: NodeId, seed: impl Fn(&mut Dag, &Node) -> Option<NodeId>) -> NodeId {
+        let live = self.reachable(&[root]);
+        let zero = self.constant(0.0);
+        let mut d = vec![zero; root.0 as usize + 1];
+        for i in 0..=root.0 as usize {
+            if !live[i] {
+                continue;
+            }
+            let node = self.nodes[i].clone();
+            d[i] = match node {
+                Node::Const(_) => zero,
+                Node::Add(a, b) => self.add(d[a.0 as usize], d[b.0 as usize]),
+                Node::Sub(a, b) => self.sub(d[a.0 as usize], d[b.0 as usize]),
+                Node::Neg(a) => self.neg(d[a.0 as usize]),
+                Node::Mul(a, b) => {
+                    let (da, db) = (d[a.0 as usize], d[b.0 as usize]);
+                    let l = self.mul(da, b);
+                    let r = self.mul(a, db);
+                    self.add(l, r)
+                }
+                ref leaf => seed(self, leaf).unwrap_or(zero),
+            };
+        }
+        d[root.0 as usize]
+    }
+
+    /// Reverse mode: the gradient of `root` with respect to the leaves `wrt` (one sweep for
+    /// all of them, the cost of a few evaluations of `root` however many leaves).
+    pub fn gradient(&mut self, root: NodeId, wrt: &[NodeId]) -> Vec<NodeId> {
+        let dep = self.depends(root, |n| wrt.iter().any(|w| self.nodes[w.0 as usize] == *n));
+        let mut adj: Vec<Option<NodeId>> = vec![None; root.0 as usize + 1];
+        if dep[root.0 as usize] {
+            adj[root.0 as usize] = Some(self.constant(1.0));
+        }
+        // Adds `v` (subtracts when `negate`) to the adjoint of `n`.
+        let accumulate = |dag: &mut Dag, adj: &mut Vec<Option<NodeId>>, n: NodeId, v: NodeId, negate: bool| {
+            let slot = &mut adj[n.0 as usize];
+            *slot = Some(match (*slot, negate) {
+                (None, false) => v,
+                (None, true) => dag.neg(v),
+                (Some(prev), false) => dag.add(prev, v),
+                (Some(prev), true) => dag.sub(prev, v),
+            });
+        };
+        for i in (0..=root.0 as usize).rev() {
+            let Some(a_i) = adj[i] else { continue };
+            let node = self.nodes[i].clone();
+            match node {
+                Node::Add(a, b) | Node::Sub(a, b) => {
+                    if dep[a.0 as usize] {
+                        accumulate(self, &mut adj, a, a_i, false);
+                    }
+                    if dep[b.0 as usize] {
+                        accumulate(self, &mut adj, b, a_i, matches!(node, Node::Sub(..)));
+                    }
+                }
+                Node::Mul(a, b) => {
+                    if dep[a.0 as usize] {
+                        let v = self.mul(a_i, b);
+                        accumulate(self, &mut adj, a, v, false);
+                    }
+                    if dep[b.0 as usize] {
+                        let v = self.mul(a_i, a);
+                        accumulate(self, &mut adj, b, v, false);
+                    }
+                }
+                Node::Neg(a) => accumulate(self, &mut adj, a, a_i, true),
+                _ => {}
+            }
+        }
+        let zero = self.constant(0.0);
+        wrt.iter().map(|w| adj.get(w.0 as usize).copied().flatten().unwrap_or(zero)).collect()
+    }
+
+    /// The leaf node of variable `v` of `vars`' numbering.
+    pub fn leaf(&mut self, v: Var, vars: &VarTable) -> NodeId {
+        self.var(v, vars)
+    }
+}
+
+/// [`crate::lower::Algebra`] on DAG nodes: the declaration lowered without expansion, every
+/// operation one node (hash-consed, so repeated subexpressions are shared); `diff` by forward
+/// mode on the DAG.
+pub struct DagAlgebra<'d> {
+    /// The DAG the nodes live in.
+    pub dag: &'d mut Dag,
+    /// Unknowns `0 .. nx` become [`Node::X`], the rest [`Node::P`].
+    pub nx: usize,
+}
+
+impl crate::lower::Algebra for DagAlgebra<'_> {
+    type E = NodeId;
+    fn var(&mut self, v: Var) -> NodeId {
+        let node = if (v as usize) < self.nx { Node::X(v) } else { Node::P(v - self.nx as Var) };
+        self.dag.intern(node)
+    }
+    fn constant(&mut self, c: f64) -> NodeId {
+        self.dag.constant(c)
+    }
+    fn as_constant(&self, e: &NodeId) -> Option<f64> {
+        self.dag.const_value(*e)
+    }
+    fn add(&mut self, a: &NodeId, b: &NodeId) -> NodeId {
+        self.dag.add(*a, *b)
+    }
+    fn sub(&mut self, a: &NodeId, b: &NodeId) -> NodeId {
+        self.dag.sub(*a, *b)
+    }
+    fn mul(&mut self, a: &NodeId, b: &NodeId) -> NodeId {
+        self.dag.mul(*a, *b)
+    }
+    fn neg(&mut self, a: &NodeId) -> NodeId {
+        self.dag.neg(*a)
+    }
+    fn scale(&mut self, a: &NodeId, c: f64) -> NodeId {
+        let k = self.dag.constant(c);
+        self.dag.mul(k, *a)
+    }
+    fn pow(&mut self, a: &NodeId, n: u32) -> NodeId {
+        // Square and multiply: `a^n` in about `log2 n` products.
+        let mut acc = self.dag.constant(1.0);
+        let mut base = *a;
+        let mut n = n;
+        while n > 0 {
+            if n & 1 == 1 {
+                acc = self.dag.mul(acc, base);
+            }
+            n >>= 1;
+            if n > 0 {
+                base = self.dag.mul(base, base);
+            }
+        }
+        acc
+    }
+    fn diff(&mut self, a: &NodeId, v: Var) -> NodeId {
+        let target = if (v as usize) < self.nx { Node::X(v) } else { Node::P(v - self.nx as Var) };
+        self.dag.derivative(*a, |dag, leaf| (*leaf == target).then(|| dag.constant(1.0)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lower::{evaluate, lower};
+    use quote::quote;
+
+    /// Evaluates `id` in `f64` with leaves `x`, `p`, `dp`.
+    fn eval(dag: &Dag, id: NodeId, x: &[f64], p: &[f64], dp: &[f64]) -> f64 {
+        let mut v = vec![0.0; id.0 as usize + 1];
+        for i in 0..=id.0 as usize {
+            v[i] = match dag.nodes[i] {
+                Node::X(k) => x[k as usize],
+                Node::P(k) => p[k as usize],
+                Node::Dp(k) => dp[k as usize],
+                Node::C(_) => f64::NAN,
+                Node::Const(bits) => f64::from_bits(bits),
+                Node::Add(a, b) => v[a.0 as usize] + v[b.0 as usize],
+                Node::Sub(a, b) => v[a.0 as usize] - v[b.0 as usize],
+                Node::Mul(a, b) => v[a.0 as usize] * v[b.0 as usize],
+                Node::Neg(a) => -v[a.0 as usize],
+            };
+        }
+        v[id.0 as usize]
+    }
+
+    /// The unexpanded lowering, its reverse-mode gradient and forward-mode parameter
+    /// derivative agree with the expanded polynomials, on a declaration using every construct
+    /// (`grad` in the row equations, so `DagAlgebra::diff` too).
+    #[test]
+    fn unexpanded_lowering_and_its_derivatives_match_the_expansion() {
+        let item = quote! {
+            mod every_construct {
+                pub struct Unknowns { q: Quat, t: Vec3, s: Scalar }
+                pub struct Row { f: Vec3, v: Vec3, w: Scalar }
+                pub struct Globals { k: Mat<3, 3>, h: Sym<3> }
+                pub const ROWS: [usize; 1] = [3];
+                pub fn row_equations() -> [Scalar; 2] {
+                    let r = rotation(q);
+                    let b = (k * r.transpose()) * f;
+                    let e = b.dot(h * v) * s.powi(3) / 2.0 - w + f.cross(t)[1] + t.dot(skew(v) * (r * f));
+                    [e, grad(e * s, t).sum() - q.norm_squared() * w]
+                }
+                pub fn global_equations() -> [Scalar; 1] { [q.dot(q) - 1] }
+            }
+        };
+        let mut cx = crate::ctxt::Ctxt::new();
+        let options = crate::decl::parse_options(&mut cx, quote!());
+        let decl = crate::decl::parse_declaration(&mut cx, options, item).expect("declaration parses");
+        cx.check().expect("no errors");
+        let poly = lower(&decl, 1);
+        let mut dag = Dag::default();
+        let (eqs, vars, epr, globals) = evaluate(&mut DagAlgebra { dag: &mut dag, nx: poly.vars.nx() }, None, &decl, 1);
+        assert_eq!((epr, globals, eqs.len()), (poly.eqs_per_row, poly.global_eqs, poly.equations.len()));
+        let (nx, np) = (vars.nx(), vars.np());
+        assert_eq!((nx, np), (poly.vars.nx(), poly.vars.np()));
+        let xs: Vec<NodeId> = (0..nx).map(|i| dag.leaf(i as Var, &vars)).collect();
+        for trial in 0..20 {
+            // A small deterministic spread of points, away from special values.
+            let val = |i: usize, salt: f64| ((i as f64 + 1.3) * (trial as f64 + salt)).sin() * 1.7;
+            let x: Vec<f64> = (0..nx).map(|i| val(i, 0.71)).collect();
+            let p: Vec<f64> = (0..np).map(|i| val(i, 2.39)).collect();
+            let dp: Vec<f64> = (0..np).map(|i| val(i, 5.17)).collect();
+            let at = |v: Var| if (v as usize) < nx { x[v as usize] } else { p[v as usize - nx] };
+            for (e, (&node, expanded)) in eqs.iter().zip(&poly.equations).enumerate() {
+                let close = |a: f64, b: f64, what: &str| {
+                    assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "equation {e} {what}: {a} vs {b}, trial {trial}");
+                };
+                close(eval(&dag, node, &x, &p, &dp), expanded.eval(at), "value");
+                let grad = dag.gradient(node, &xs);
+                for (k, &g) in grad.iter().enumerate() {
+                    close(eval(&dag, g, &x, &p, &dp), expanded.diff(k as Var).eval(at), "gradient");
+                }
+                let moved = dag.derivative(node, |dag, leaf| match *leaf {
+                    Node::P(m) => Some(dag.direction(m)),
+                    _ => None,
+                });
+                let expected: f64 = (0..np).map(|m| expanded.diff((nx + m) as Var).eval(at) * dp[m]).sum();
+                close(eval(&dag, moved, &x, &p, &dp), expected, "parameter derivative");
+            }
+        }
+    }
+
+    /// Reverse mode sums the contributions of a node used several times.
+    #[test]
+    fn gradient_accumulates_shared_nodes() {
+        let mut dag = Dag::default();
+        let (x, y) = (dag.intern(Node::X(0)), dag.intern(Node::X(1)));
+        let xy = dag.mul(x, y);
+        let f = dag.mul(xy, x); // x^2 y
+        let g = dag.sub(f, xy); // x^2 y - x y
+        let grad = dag.gradient(g, &[x, y]);
+        let (px, py) = (3.0, -2.0);
+        assert_eq!(eval(&dag, grad[0], &[px, py], &[], &[]), 2.0 * px * py - py);
+        assert_eq!(eval(&dag, grad[1], &[px, py], &[], &[]), px * px - px);
     }
 }

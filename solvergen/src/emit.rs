@@ -611,6 +611,9 @@ struct RowKernels {
     one: Instance,
     shape: RowShape,
     row_len: usize,
+    /// The row kernel from the row's parameters, unexpanded, and the trait items that call it
+    /// (see [`param_lanes`]).
+    param_lanes: (TokenStream, TokenStream),
 }
 
 impl RowKernels {
@@ -650,7 +653,8 @@ impl RowKernels {
                 kernel_fused,
             ),
         ];
-        Self { items: quote!(#(#items)*), residual, jacobian, fused, one, shape, row_len }
+        let param_lanes = param_lanes(decl, &one, shape, row_len);
+        Self { items: quote!(#(#items)*), residual, jacobian, fused, one, shape, row_len, param_lanes }
     }
 
     /// The coefficient form in lanes, when the coefficients of the instance are `rows` blocks
@@ -761,7 +765,9 @@ impl RowKernels {
             ];
             let wrapped = dispatched(&args, body);
             let (kernel, lanes_items) = self.path_lanes(&split.equations, &split.vars, nc1);
-            lane_kernel = kernel;
+            let (param_kernel, param_items) = &self.param_lanes;
+            lane_kernel = quote!(#kernel #param_kernel);
+            let lanes_items = quote!(#lanes_items #param_items);
             quote! {
                 #lanes_items
                 const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((#rows, #nc1_t));
@@ -854,6 +860,75 @@ impl RowKernels {
         };
         (kernel, items)
     }
+}
+
+/// The path-lane row kernel from the row's *parameters*: the row equations lowered without
+/// expansion (the declared expression as a DAG, [`crate::dag::DagAlgebra`]: `rotation(q)`
+/// formed once, `R * (v x f)` not multiplied out), their `x`-gradient by reverse mode and
+/// `dF/dp * dp` by forward mode on that DAG. The batch tracker feeds it `p(t)` and `dp/dt`
+/// (`k` entries per row: the row's `row_len` parameters, then the globals) instead of the
+/// coefficients of the expansion, which need a Horner pass over many more entries per row
+/// (GRPS: 12 parameters against 38 coefficients). Returns the kernel item and the trait items
+/// `PARAM_LANES` and `lanes_row_params`.
+fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usize) -> (TokenStream, TokenStream) {
+    let mut dag = Dag::default();
+    let (eqs, vars, epr, _) =
+        crate::lower::evaluate(&mut crate::dag::DagAlgebra { dag: &mut dag, nx: one.vars.nx() }, None, decl, 1);
+    let k = vars.np();
+    let xs: Vec<NodeId> = (0..shape.nx).map(|i| dag.leaf(i as Var, &vars)).collect();
+    let (mut f, mut j, mut d) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, &eq) in eqs.iter().take(epr).enumerate() {
+        f.push((n(i).into_token_stream(), eq));
+        for (x, g) in dag.gradient(eq, &xs).into_iter().enumerate() {
+            j.push((n(i * shape.nx + x).into_token_stream(), g));
+        }
+        let moved = dag.derivative(eq, |dag, leaf| match *leaf {
+            Node::P(m) => Some(dag.direction(m)),
+            _ => None,
+        });
+        d.push((n(i).into_token_stream(), moved));
+    }
+    let body = render_lanes(&dag, &vars, &[(quote!(f), &f), (quote!(j), &j), (quote!(d), &d)]);
+    let (nx, k_t, epr_t, ej, row_len_t) = (n(shape.nx), n(k), n(epr), n(epr * shape.nx), n(row_len));
+    let kernel = quote! {
+        #[doc = " Row kernel from the row's parameters `p` (the declaration unexpanded), one path per lane: residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d`."]
+        #[inline(always)]
+        #[allow(clippy::all, unused_variables)]
+        fn __row_param_lanes<S: ::simhc::lanes::Lanes>(
+            x: &[S; #nx],
+            p: &[S; #k_t],
+            dp: &[S; #k_t],
+            f: &mut [S; #epr_t],
+            j: &mut [S; #ej],
+            d: &mut [S; #epr_t],
+        ) {
+            #body
+        }
+    };
+    let items = quote! {
+        const PARAM_LANES: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((#row_len_t, #k_t));
+        #[inline(always)]
+        fn lanes_row_params<S: ::simhc::lanes::Lanes>(
+            x: &[S; #nx],
+            p: &[S],
+            dp: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; #k_t]>::try_from(p),
+                <&[S; #k_t]>::try_from(dp),
+                <&mut [S; #epr_t]>::try_from(f),
+                <&mut [S; #ej]>::try_from(j),
+                <&mut [S; #epr_t]>::try_from(d),
+            ) else {
+                return;
+            };
+            __SimhcRowKernels::__row_param_lanes(x, p, dp, f, j, d);
+        }
+    };
+    (kernel, items)
 }
 
 /// The global rows of the linear part `sum_k dc_k m_k(x)` into `out`, as scalar code.

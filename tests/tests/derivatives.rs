@@ -218,6 +218,70 @@ where
     }
 }
 
+/// The path-lane row kernel from the parameters ([`CoefficientForm::lanes_row_params`], the
+/// declaration lowered without expansion, differentiated on its DAG) against the parameter form
+/// (`residual_jacobian`, `param_directional`, both checked against central differences in
+/// [`check`]): `LANES` different complex paths, one per lane, every row. Returns whether the
+/// problem has the kernel.
+fn check_param_lanes<P, const NX: usize, const NF: usize, const NP: usize, const NC: usize>(seed: u64) -> bool
+where
+    P: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP>,
+{
+    use simhc::lanes::{Lanes, C64x4, LANES};
+    type C = Complex<f64>;
+    let (Some(epr), Some((rows, _)), Some((row_len, k))) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES) else {
+        return false;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x1a7e5);
+    let xs: Vec<SVector<C, NX>> = (0..LANES).map(|_| random_vec(&mut rng, true)).collect();
+    let ps: Vec<SVector<C, NP>> = (0..LANES).map(|_| random_vec(&mut rng, true)).collect();
+    let dps: Vec<SVector<C, NP>> = (0..LANES).map(|_| random_vec(&mut rng, true)).collect();
+    let mut xl = [C64x4::from_real(0.0); NX];
+    for (i, v) in xl.iter_mut().enumerate() {
+        for l in 0..LANES {
+            v.set(l, xs[l][i]);
+        }
+    }
+    // Expected per lane: the full system's rows.
+    let expected: Vec<(SVector<C, NF>, SMatrix<C, NF, NX>, SVector<C, NF>)> = (0..LANES)
+        .map(|l| {
+            let (mut f, mut j, mut d) = (SVector::zeros(), SMatrix::zeros(), SVector::zeros());
+            P::residual_jacobian(&xs[l], &ps[l], &mut f, &mut j);
+            P::param_directional(&xs[l], &ps[l], &dps[l], &mut d);
+            (f, j, d)
+        })
+        .collect();
+    for r in 0..rows {
+        // Row r's inputs: its own parameters, then the globals stored after all rows.
+        let src = |i: usize| if i < row_len { r * row_len + i } else { rows * row_len + (i - row_len) };
+        let mut pl = vec![C64x4::from_real(0.0); k];
+        let mut dpl = vec![C64x4::from_real(0.0); k];
+        for i in 0..k {
+            for l in 0..LANES {
+                pl[i].set(l, ps[l][src(i)]);
+                dpl[i].set(l, dps[l][src(i)]);
+            }
+        }
+        let mut f = vec![C64x4::from_real(f64::NAN); epr];
+        let mut j = vec![C64x4::from_real(f64::NAN); epr * NX];
+        let mut d = vec![C64x4::from_real(f64::NAN); epr];
+        P::lanes_row_params(&xl, &pl, &dpl, &mut f, &mut j, &mut d);
+        for (l, (fe, je, de)) in expected.iter().enumerate() {
+            let (fs, js, ds) = (fe.camax(), je.camax(), de.camax());
+            for e in 0..epr {
+                let row = r * epr + e;
+                assert!(close(f[e].get(l), fe[row], 1e-11, fs), "{}: row {r} residual, lane {l}, seed {seed}", P::NAME);
+                assert!(close(d[e].get(l), de[row], 1e-11, ds), "{}: row {r} dF/dp dp, lane {l}, seed {seed}", P::NAME);
+                for x in 0..NX {
+                    let got = j[e * NX + x].get(l);
+                    assert!(close(got, je[(row, x)], 1e-11, js), "{}: row {r} J[{x}], lane {l}, seed {seed}", P::NAME);
+                }
+            }
+        }
+    }
+    true
+}
+
 fn check_both<P, const NX: usize, const NF: usize, const NP: usize>(seed: u64)
 where
     P: ParamDerivative<NX, NF, NP>,
@@ -252,6 +316,7 @@ proptest! {
     fn kitchen_sink_derivatives(seed in any::<u64>()) {
         check_both::<kitchen_sink::KitchenSink3, 5, 5, 27>(seed);
         check_coefficients_both::<kitchen_sink::KitchenSink3, 5, 5, 27, 63>(seed);
+        prop_assert!(check_param_lanes::<kitchen_sink::KitchenSink3, 5, 5, 27, 63>(seed));
         check_both::<kitchen_sink::KitchenSink4, 5, 6, 31>(seed);
     }
 
@@ -261,6 +326,8 @@ proptest! {
         check_both::<grps::Grps8, 8, 9, 96>(seed);
         check_coefficients_both::<grps::Grps7, 8, 8, 84, 266>(seed);
         check_coefficients_both::<grps::Grps8, 8, 9, 96, 304>(seed);
+        prop_assert!(check_param_lanes::<grps::Grps7, 8, 8, 84, 266>(seed));
+        prop_assert!(check_param_lanes::<grps::Grps8, 8, 9, 96, 304>(seed));
     }
 
     #[test]

@@ -86,6 +86,12 @@ pub struct AllRootsOptions {
     /// The instruction set of the batch tracker ([`LaneIsa`]); `None` (default): the widest
     /// this CPU runs. One this CPU does not run tracks one path at a time.
     pub lane_isa: Option<LaneIsa>,
+    /// The batch tracker's row kernel: `true` (default) evaluates each row from its parameters
+    /// `p(t)` ([`CoefficientForm::lanes_row_params`], the unexpanded declaration) where the
+    /// problem has it, `false` from the coefficients of the expansion
+    /// ([`CoefficientForm::lanes_row`]). The same paths either way, to rounding (GRPS7: 0.8x the
+    /// time with parameters); `false` is there to compare them.
+    pub param_lanes: bool,
     /// Path-jump repair: paths that failed or whose end points coincide with another path's
     /// (relative distance below `duplicate_tolerance`, modulo the symmetry) are tracked again
     /// with these stricter settings, up to `retrack_rounds` times (each round halves the largest
@@ -155,6 +161,7 @@ impl Default for AllRootsOptions {
             parallel: false,
             batch: true,
             lane_isa: None,
+            param_lanes: true,
             retrack: Some(strict_tracker()),
             retrack_rounds: 2,
             duplicate_tolerance: 1e-8,
@@ -302,7 +309,11 @@ where
     };
     let isa = options.lane_isa.unwrap_or_else(LaneIsa::detect);
     let lanes = if options.batch && batch_supported(&options.tracker) && isa.available() {
-        LaneSystem::<P, N, NC>::new::<NP>(h.coefficient_poly())
+        options
+            .param_lanes
+            .then(|| LaneSystem::<P, N, NC>::from_parameter_path::<NP>(&h.parameter_path().param_poly()))
+            .flatten()
+            .or_else(|| LaneSystem::<P, N, NC>::new::<NP>(h.coefficient_poly()))
     } else {
         None
     };
@@ -550,6 +561,11 @@ impl<P, const NP: usize, const NC: usize> CoefficientParameterHomotopy<P, NP, NC
     /// The coefficients along the path, `c(t) = sum_k t^k poly[k]`.
     pub fn coefficient_poly(&self) -> &[SVector<C, NC>] {
         &self.c
+    }
+
+    /// The parameter path the coefficients follow.
+    pub fn parameter_path(&self) -> &ParameterHomotopy<P, C, NP> {
+        &self.base
     }
 
     /// `dH/dt` at `(x, t)`.

@@ -15,7 +15,8 @@
 //!
 //! Timing of the all-roots solvers from the shipped start systems (noise-free scenes, ground
 //! truth among the real solutions, median and mean wall time per solve, 1 thread and rayon;
-//! GRPS7 also on one thread with each narrower lane instruction set this CPU runs):
+//! GRPS7 also on one thread with the row kernel on the coefficients of the expansion instead of
+//! the parameters, and with each narrower lane instruction set this CPU runs):
 //!
 //! ```sh
 //! cargo run --release -p simhc-problems --example monodromy -- bench 200   # 200 trials each
@@ -134,14 +135,18 @@ fn bench(trials: u64) {
     use simhc_problems::start_systems::{solve_grps7, solve_upnp};
     use simhc_problems::upnp::{self, geometry::upnp_cost_matrix, scene::UpnpSceneConfig};
     use std::time::Instant;
-    // The default (widest instruction set, 1 and 2 threads), then GRPS7 on one thread with each
-    // narrower instruction set this CPU runs.
+    // The default (widest instruction set, 1 and 2 threads), then GRPS7 on one thread with the
+    // coefficient row kernel (`param_lanes: false`, the same paths) and with each narrower
+    // instruction set this CPU runs.
     let isas = LaneIsa::ALL.into_iter().filter(|isa| isa.available()).skip(1);
-    let runs = [(false, None), (true, None)].into_iter().chain(isas.map(|isa| (false, Some(isa))));
-    for (parallel, lane_isa) in runs {
+    let runs = [(false, None, true), (true, None, true), (false, None, false)]
+        .into_iter()
+        .chain(isas.map(|isa| (false, Some(isa), true)));
+    for (parallel, lane_isa, param_lanes) in runs {
         let options = AllRootsOptions {
             parallel,
             lane_isa,
+            param_lanes,
             ..AllRootsOptions::default()
         };
         let threads = if parallel { rayon_threads() } else { 1 };
@@ -166,15 +171,16 @@ fn bench(trials: u64) {
             retracked += res.retracked;
         }
         println!(
-            "grps7 all-roots ({threads} thread{}, {isa:?} lanes): ground truth found {found}/{trials}, median {:.2} ms, mean {:.2} ms per solve ({} paths, {:.2} failed, {:.2} re-tracked per solve)",
+            "grps7 all-roots ({threads} thread{}, {isa:?} lanes{}): ground truth found {found}/{trials}, median {:.2} ms, mean {:.2} ms per solve ({} paths, {:.2} failed, {:.2} re-tracked per solve)",
             if threads == 1 { "" } else { "s" },
+            if param_lanes { "" } else { ", coefficient rows" },
             median(times.clone()),
             times.iter().sum::<f64>() / times.len() as f64,
             paths / trials as usize,
             failed as f64 / trials as f64,
             retracked as f64 / trials as f64,
         );
-        if lane_isa.is_some() {
+        if lane_isa.is_some() || !param_lanes {
             continue;
         }
         // UPnP (noise-free: the global minimum is the ground truth; no path lanes).

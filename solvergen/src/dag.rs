@@ -279,22 +279,76 @@ impl Dag {
 
 /// Differentiation on the DAG (automatic differentiation of straight-line code).
 impl Dag {
-    /// Difference, folding zeros.
-    pub fn sub(&mut self, a: NodeId, b: NodeId) -> NodeId {
-        match (self.const_value(a), self.const_value(b)) {
-            (Some(x), Some(y)) => self.constant(x - y),
-            (_, Some(z)) if z == 0.0 => a,
-            (Some(z), _) if z == 0.0 => self.neg(b),
-            _ => self.intern(Node::Sub(a, b)),
+    /// The operand of a negation.
+    fn negated_operand(&self, a: NodeId) -> Option<NodeId> {
+        match self.nodes[a.0 as usize] {
+            Node::Neg(inner) => Some(inner),
+            _ => None,
         }
     }
 
-    /// Negation, folding constants and double negation.
+    /// `-a`, folding constants and double negation.
     pub fn neg(&mut self, a: NodeId) -> NodeId {
-        match (self.const_value(a), &self.nodes[a.0 as usize]) {
-            (Some(x), _) => self.constant(-x),
-            (None, Node::Neg(inner)) => *inner,
-            _ => self.intern(Node::Neg(a)),
+        if let Some(x) = self.const_value(a) {
+            return self.constant(-x);
+        }
+        match self.negated_operand(a) {
+            Some(inner) => inner,
+            None => self.intern(Node::Neg(a)),
+        }
+    }
+
+    // The arithmetic of the unexpanded lowering and of differentiation: zeros and constants
+    // folded, and negations moved outward (`a * -b = -(a b)`, `a + -b = a - b`), so that a
+    // product meets its sum and the emitter fuses them (`mul_add`, `neg_mul_add`) instead of
+    // emitting a negation (the declaration's `skew(v)` and every reverse-mode subtraction
+    // make them). The polynomial builder above keeps its own forms.
+
+    /// `a + b`, simplified.
+    pub fn plus(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.negated_operand(a), self.negated_operand(b)) {
+            (Some(x), Some(y)) => {
+                let s = self.plus(x, y);
+                self.neg(s)
+            }
+            (None, Some(y)) => self.minus(a, y),
+            (Some(x), None) => self.minus(b, x),
+            (None, None) => self.add(a, b),
+        }
+    }
+
+    /// `a - b`, simplified.
+    pub fn minus(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.const_value(a), self.const_value(b)) {
+            (Some(x), Some(y)) => return self.constant(x - y),
+            (_, Some(z)) if z == 0.0 => return a,
+            (Some(z), _) if z == 0.0 => return self.neg(b),
+            _ => {}
+        }
+        match (self.negated_operand(a), self.negated_operand(b)) {
+            (_, Some(y)) => self.plus(a, y),
+            (Some(x), None) => {
+                let s = self.plus(x, b);
+                self.neg(s)
+            }
+            (None, None) => self.intern(Node::Sub(a, b)),
+        }
+    }
+
+    /// `a * b`, simplified (a constant factor absorbs a negation).
+    pub fn times(&mut self, a: NodeId, b: NodeId) -> NodeId {
+        match (self.negated_operand(a), self.negated_operand(b)) {
+            (Some(x), Some(y)) => self.times(x, y),
+            (Some(x), None) | (None, Some(x)) => {
+                let other = if self.negated_operand(a).is_some() { b } else { a };
+                if let Some(k) = self.const_value(other) {
+                    let k = self.constant(-k);
+                    return self.mul(k, x);
+                }
+                let m = self.times(other, x);
+                self.neg(m)
+            }
+            (None, None) => self.mul(a, b),
         }
     }
 
@@ -329,14 +383,14 @@ impl Dag {
             let node = self.nodes[i].clone();
             d[i] = match node {
                 Node::Const(_) => zero,
-                Node::Add(a, b) => self.add(d[a.0 as usize], d[b.0 as usize]),
-                Node::Sub(a, b) => self.sub(d[a.0 as usize], d[b.0 as usize]),
+                Node::Add(a, b) => self.plus(d[a.0 as usize], d[b.0 as usize]),
+                Node::Sub(a, b) => self.minus(d[a.0 as usize], d[b.0 as usize]),
                 Node::Neg(a) => self.neg(d[a.0 as usize]),
                 Node::Mul(a, b) => {
                     let (da, db) = (d[a.0 as usize], d[b.0 as usize]);
-                    let l = self.mul(da, b);
-                    let r = self.mul(a, db);
-                    self.add(l, r)
+                    let l = self.times(da, b);
+                    let r = self.times(a, db);
+                    self.plus(l, r)
                 }
                 ref leaf => seed(self, leaf).unwrap_or(zero),
             };
@@ -358,8 +412,8 @@ impl Dag {
             *slot = Some(match (*slot, negate) {
                 (None, false) => v,
                 (None, true) => dag.neg(v),
-                (Some(prev), false) => dag.add(prev, v),
-                (Some(prev), true) => dag.sub(prev, v),
+                (Some(prev), false) => dag.plus(prev, v),
+                (Some(prev), true) => dag.minus(prev, v),
             });
         };
         for i in (0..=root.0 as usize).rev() {
@@ -376,11 +430,11 @@ impl Dag {
                 }
                 Node::Mul(a, b) => {
                     if dep[a.0 as usize] {
-                        let v = self.mul(a_i, b);
+                        let v = self.times(a_i, b);
                         accumulate(self, &mut adj, a, v, false);
                     }
                     if dep[b.0 as usize] {
-                        let v = self.mul(a_i, a);
+                        let v = self.times(a_i, a);
                         accumulate(self, &mut adj, b, v, false);
                     }
                 }
@@ -421,20 +475,20 @@ impl crate::lower::Algebra for DagAlgebra<'_> {
         self.dag.const_value(*e)
     }
     fn add(&mut self, a: &NodeId, b: &NodeId) -> NodeId {
-        self.dag.add(*a, *b)
+        self.dag.plus(*a, *b)
     }
     fn sub(&mut self, a: &NodeId, b: &NodeId) -> NodeId {
-        self.dag.sub(*a, *b)
+        self.dag.minus(*a, *b)
     }
     fn mul(&mut self, a: &NodeId, b: &NodeId) -> NodeId {
-        self.dag.mul(*a, *b)
+        self.dag.times(*a, *b)
     }
     fn neg(&mut self, a: &NodeId) -> NodeId {
         self.dag.neg(*a)
     }
     fn scale(&mut self, a: &NodeId, c: f64) -> NodeId {
         let k = self.dag.constant(c);
-        self.dag.mul(k, *a)
+        self.dag.times(k, *a)
     }
     fn pow(&mut self, a: &NodeId, n: u32) -> NodeId {
         // Square and multiply: `a^n` in about `log2 n` products.
@@ -443,11 +497,11 @@ impl crate::lower::Algebra for DagAlgebra<'_> {
         let mut n = n;
         while n > 0 {
             if n & 1 == 1 {
-                acc = self.dag.mul(acc, base);
+                acc = self.dag.times(acc, base);
             }
             n >>= 1;
             if n > 0 {
-                base = self.dag.mul(base, base);
+                base = self.dag.times(base, base);
             }
         }
         acc
@@ -547,7 +601,7 @@ mod tests {
         let (x, y) = (dag.intern(Node::X(0)), dag.intern(Node::X(1)));
         let xy = dag.mul(x, y);
         let f = dag.mul(xy, x); // x^2 y
-        let g = dag.sub(f, xy); // x^2 y - x y
+        let g = dag.minus(f, xy); // x^2 y - x y
         let grad = dag.gradient(g, &[x, y]);
         let (px, py) = (3.0, -2.0);
         assert_eq!(eval(&dag, grad[0], &[px, py], &[], &[]), 2.0 * px * py - py);

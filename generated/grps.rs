@@ -1199,49 +1199,14 @@ pub mod grps {
             j[2] = t19;
             j[3] = t20;
         }
-        /// Row kernel from the row's parameters `p` (the declaration unexpanded), one path per lane: residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d`.
+        /// The part of the parameter row kernel that depends on the unknowns only (the same for every row), one path per lane.
         #[inline(always)]
         #[allow(clippy::all, unused_variables)]
-        fn __row_param_lanes<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            p: &[S; 12],
-            dp: &[S; 12],
-            f: &mut [S; 1],
-            j: &mut [S; 8],
-            d: &mut [S; 1],
-        ) {
+        fn __row_param_shared<S: ::simhc::lanes::Lanes>(x: &[S; 8], out: &mut [S; 9]) {
             let x_q_0 = x[0];
             let x_q_1 = x[1];
             let x_q_2 = x[2];
             let x_q_3 = x[3];
-            let x_t_0 = x[4];
-            let x_t_1 = x[5];
-            let x_t_2 = x[6];
-            let x_s = x[7];
-            let p_row0_f_0 = p[0];
-            let p_row0_f_1 = p[1];
-            let p_row0_f_2 = p[2];
-            let p_row0_v_0 = p[3];
-            let p_row0_v_1 = p[4];
-            let p_row0_v_2 = p[5];
-            let p_row0_fp_0 = p[6];
-            let p_row0_fp_1 = p[7];
-            let p_row0_fp_2 = p[8];
-            let p_row0_vp_0 = p[9];
-            let p_row0_vp_1 = p[10];
-            let p_row0_vp_2 = p[11];
-            let dp_row0_f_0 = dp[0];
-            let dp_row0_f_1 = dp[1];
-            let dp_row0_f_2 = dp[2];
-            let dp_row0_v_0 = dp[3];
-            let dp_row0_v_1 = dp[4];
-            let dp_row0_v_2 = dp[5];
-            let dp_row0_fp_0 = dp[6];
-            let dp_row0_fp_1 = dp[7];
-            let dp_row0_fp_2 = dp[8];
-            let dp_row0_vp_0 = dp[9];
-            let dp_row0_vp_1 = dp[10];
-            let dp_row0_vp_2 = dp[11];
             let t20 = x_q_0 * x_q_0;
             let t21 = x_q_1 * x_q_1;
             let t22 = x_q_2 * x_q_2;
@@ -1271,223 +1236,286 @@ pub mod grps {
             let t47 = t39.scale(2.0);
             let t48 = t38.scale(2.0);
             let t49 = t34.scale(2.0);
-            let t52 = p_row0_fp_1 * t44;
-            let t53 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, t40, t52);
-            let t55 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, t45, t53);
-            let t57 = p_row0_fp_1 * t41;
-            let t58 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, t46, t57);
-            let t60 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, t47, t58);
-            let t62 = p_row0_fp_1 * t49;
-            let t63 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, t48, t62);
-            let t65 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, t42, t63);
-            let t67 = p_row0_f_2 * t60;
-            let t68 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_1, t65, t67);
-            let t70 = p_row0_f_0 * t65;
-            let t71 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_2, t55, t70);
-            let t73 = p_row0_f_1 * t55;
-            let t74 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_0, t60, t73);
-            let t76 = x_t_1 * t71;
-            let t77 = ::simhc::lanes::Lanes::mul_add(x_t_0, t68, t76);
-            let t79 = ::simhc::lanes::Lanes::mul_add(x_t_2, t74, t77);
-            let t83 = p_row0_fp_1 * p_row0_vp_2;
-            let t86 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, p_row0_vp_1, t83);
-            let t88 = p_row0_fp_2 * p_row0_vp_0;
-            let t90 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, p_row0_vp_2, t88);
-            let t91 = p_row0_fp_0 * p_row0_vp_1;
-            let t94 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, p_row0_vp_0, t91);
-            let t96 = t44 * t90;
-            let t97 = ::simhc::lanes::Lanes::mul_add(t40, t86, t96);
-            let t99 = ::simhc::lanes::Lanes::mul_add(t45, t94, t97);
-            let t101 = t41 * t90;
-            let t102 = ::simhc::lanes::Lanes::mul_add(t46, t86, t101);
-            let t104 = ::simhc::lanes::Lanes::mul_add(t47, t94, t102);
-            let t106 = t49 * t90;
-            let t107 = ::simhc::lanes::Lanes::mul_add(t48, t86, t106);
-            let t109 = ::simhc::lanes::Lanes::mul_add(t42, t94, t107);
-            let t111 = p_row0_f_1 * t104;
-            let t112 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t99, t111);
-            let t114 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t109, t112);
-            let t116 = ::simhc::lanes::Lanes::neg_mul_add(x_s, t114, t79);
-            let t120 = p_row0_v_2 * t60;
-            let t123 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_1, t65, t120);
-            let t125 = p_row0_v_0 * t65;
-            let t127 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_2, t55, t125);
-            let t128 = p_row0_v_1 * t55;
-            let t131 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_0, t60, t128);
-            let t133 = p_row0_f_1 * t127;
-            let t134 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t123, t133);
-            let t136 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t131, t134);
-            let t137 = t116 + t136;
-            let t144 = p_row0_f_2 * p_row0_v_1;
-            let t147 = p_row0_f_1 * p_row0_v_0;
-            let t150 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_1, p_row0_v_2, t144);
-            let t153 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_0, p_row0_v_1, t147);
-            let t154 = p_row0_f_0 * p_row0_v_2;
-            let t156 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_2, p_row0_v_0, t154);
-            let t158 = -t114;
-            let t160 = x_s * p_row0_f_2;
-            let t162 = x_s * p_row0_f_1;
-            let t164 = x_s * p_row0_f_0;
-            let t166 = t94 * t160;
-            let t168 = t90 * t160;
-            let t170 = t86 * t160;
-            let t172 = t94 * t162;
-            let t174 = t90 * t162;
-            let t176 = t86 * t162;
-            let t178 = t94 * t164;
-            let t180 = t90 * t164;
-            let t182 = t86 * t164;
-            let t187 = ::simhc::lanes::Lanes::neg_mul_add(x_t_2, p_row0_f_1, t150);
-            let t189 = ::simhc::lanes::Lanes::mul_add(x_t_2, p_row0_f_0, t156);
-            let t193 = ::simhc::lanes::Lanes::neg_mul_add(x_t_1, p_row0_f_0, t153);
-            let t195 = ::simhc::lanes::Lanes::mul_add(x_t_1, p_row0_f_2, t187);
-            let t199 = ::simhc::lanes::Lanes::neg_mul_add(x_t_0, p_row0_f_2, t189);
-            let t201 = ::simhc::lanes::Lanes::mul_add(x_t_0, p_row0_f_1, t193);
-            let t203 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t201, t166);
-            let t205 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t201, t168);
-            let t207 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t201, t170);
-            let t209 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t199, t172);
-            let t211 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t199, t174);
-            let t213 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t199, t176);
-            let t215 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t195, t178);
-            let t217 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t195, t180);
-            let t219 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t195, t182);
-            let t220 = t205.scale(2.0);
-            let t221 = t207.scale(2.0);
-            let t222 = t209.scale(2.0);
-            let t223 = t213.scale(2.0);
-            let t224 = t215.scale(2.0);
-            let t225 = t217.scale(2.0);
-            let t227 = t203 + t211;
-            let t228 = t211 - t203;
-            let t235 = t220 + t222;
-            let t236 = t220 - t222;
-            let t237 = t221 + t224;
-            let t238 = t224 - t221;
-            let t239 = t223 + t225;
-            let t240 = t223 - t225;
-            let t241 = t228 - t219;
-            let t242 = t219 + t228;
-            let t244 = t219 + t227;
-            let t245 = t219 - t227;
-            let t250 = x_q_2 * t238;
-            let t251 = ::simhc::lanes::Lanes::mul_add(x_q_1, t236, t250);
-            let t252 = x_q_0 * t238;
-            let t253 = ::simhc::lanes::Lanes::mul_add(x_q_3, t235, t252);
-            let t254 = x_q_3 * t237;
-            let t255 = ::simhc::lanes::Lanes::mul_add(x_q_0, t236, t254);
-            let t256 = x_q_1 * t237;
-            let t257 = ::simhc::lanes::Lanes::mul_add(x_q_2, t235, t256);
-            let t259 = ::simhc::lanes::Lanes::mul_add(x_q_3, t240, t251);
-            let t261 = ::simhc::lanes::Lanes::mul_add(x_q_0, t240, t257);
-            let t263 = ::simhc::lanes::Lanes::mul_add(x_q_2, t239, t255);
-            let t265 = ::simhc::lanes::Lanes::mul_add(x_q_1, t239, t253);
-            let t266 = x_q_3 * t242;
-            let t268 = t261 - t266;
-            let t269 = t268 - t266;
-            let t270 = x_q_2 * t241;
-            let t271 = t265 + t270;
-            let t272 = t270 + t271;
-            let t273 = x_q_1 * t245;
-            let t274 = t263 + t273;
-            let t275 = t273 + t274;
-            let t276 = x_q_0 * t244;
-            let t277 = t259 + t276;
-            let t278 = t276 + t277;
-            let t292 = t44 * dp_row0_fp_1;
-            let t293 = ::simhc::lanes::Lanes::mul_add(t40, dp_row0_fp_0, t292);
-            let t295 = ::simhc::lanes::Lanes::mul_add(t45, dp_row0_fp_2, t293);
-            let t297 = t41 * dp_row0_fp_1;
-            let t298 = ::simhc::lanes::Lanes::mul_add(t46, dp_row0_fp_0, t297);
-            let t300 = ::simhc::lanes::Lanes::mul_add(t47, dp_row0_fp_2, t298);
-            let t302 = t49 * dp_row0_fp_1;
-            let t303 = ::simhc::lanes::Lanes::mul_add(t48, dp_row0_fp_0, t302);
-            let t305 = ::simhc::lanes::Lanes::mul_add(t42, dp_row0_fp_2, t303);
-            let t307 = p_row0_f_1 * t305;
-            let t308 = ::simhc::lanes::Lanes::mul_add(t65, dp_row0_f_1, t307);
-            let t310 = p_row0_f_2 * t300;
-            let t311 = ::simhc::lanes::Lanes::mul_add(t60, dp_row0_f_2, t310);
-            let t312 = t308 - t311;
-            let t314 = p_row0_f_2 * t295;
-            let t315 = ::simhc::lanes::Lanes::mul_add(t55, dp_row0_f_2, t314);
-            let t317 = p_row0_f_0 * t305;
-            let t318 = ::simhc::lanes::Lanes::mul_add(t65, dp_row0_f_0, t317);
-            let t319 = t315 - t318;
-            let t321 = p_row0_f_0 * t300;
-            let t322 = ::simhc::lanes::Lanes::mul_add(t60, dp_row0_f_0, t321);
-            let t324 = p_row0_f_1 * t295;
-            let t325 = ::simhc::lanes::Lanes::mul_add(t55, dp_row0_f_1, t324);
-            let t326 = t322 - t325;
-            let t328 = x_t_1 * t319;
-            let t329 = ::simhc::lanes::Lanes::mul_add(x_t_0, t312, t328);
-            let t331 = ::simhc::lanes::Lanes::mul_add(x_t_2, t326, t329);
-            let t333 = p_row0_fp_1 * dp_row0_vp_2;
-            let t334 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_2, dp_row0_fp_1, t333);
-            let t336 = p_row0_fp_2 * dp_row0_vp_1;
-            let t337 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_1, dp_row0_fp_2, t336);
-            let t338 = t337 - t334;
-            let t340 = p_row0_fp_0 * dp_row0_vp_2;
-            let t341 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_2, dp_row0_fp_0, t340);
-            let t343 = p_row0_fp_2 * dp_row0_vp_0;
-            let t344 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_0, dp_row0_fp_2, t343);
-            let t345 = t341 - t344;
-            let t347 = p_row0_fp_0 * dp_row0_vp_1;
-            let t348 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_1, dp_row0_fp_0, t347);
-            let t350 = p_row0_fp_1 * dp_row0_vp_0;
-            let t351 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_0, dp_row0_fp_1, t350);
-            let t352 = t351 - t348;
-            let t354 = t44 * t345;
-            let t355 = ::simhc::lanes::Lanes::mul_add(t40, t338, t354);
-            let t357 = ::simhc::lanes::Lanes::mul_add(t45, t352, t355);
-            let t359 = t41 * t345;
-            let t360 = ::simhc::lanes::Lanes::mul_add(t46, t338, t359);
-            let t362 = ::simhc::lanes::Lanes::mul_add(t47, t352, t360);
-            let t364 = t49 * t345;
-            let t365 = ::simhc::lanes::Lanes::mul_add(t48, t338, t364);
-            let t367 = ::simhc::lanes::Lanes::mul_add(t42, t352, t365);
-            let t369 = p_row0_f_0 * t357;
-            let t370 = ::simhc::lanes::Lanes::mul_add(t99, dp_row0_f_0, t369);
-            let t372 = p_row0_f_1 * t362;
-            let t373 = ::simhc::lanes::Lanes::mul_add(t104, dp_row0_f_1, t372);
-            let t374 = t370 + t373;
-            let t376 = p_row0_f_2 * t367;
-            let t377 = ::simhc::lanes::Lanes::mul_add(t109, dp_row0_f_2, t376);
-            let t378 = t374 + t377;
-            let t380 = ::simhc::lanes::Lanes::neg_mul_add(x_s, t378, t331);
-            let t382 = p_row0_v_2 * t300;
-            let t383 = ::simhc::lanes::Lanes::mul_add(t60, dp_row0_v_2, t382);
-            let t385 = p_row0_v_1 * t305;
-            let t386 = ::simhc::lanes::Lanes::mul_add(t65, dp_row0_v_1, t385);
-            let t387 = t386 - t383;
-            let t389 = p_row0_v_2 * t295;
-            let t390 = ::simhc::lanes::Lanes::mul_add(t55, dp_row0_v_2, t389);
-            let t392 = p_row0_v_0 * t305;
-            let t393 = ::simhc::lanes::Lanes::mul_add(t65, dp_row0_v_0, t392);
-            let t394 = t390 - t393;
-            let t396 = p_row0_v_1 * t295;
-            let t397 = ::simhc::lanes::Lanes::mul_add(t55, dp_row0_v_1, t396);
-            let t399 = p_row0_v_0 * t300;
-            let t400 = ::simhc::lanes::Lanes::mul_add(t60, dp_row0_v_0, t399);
-            let t401 = t400 - t397;
-            let t403 = p_row0_f_0 * t387;
-            let t404 = ::simhc::lanes::Lanes::mul_add(t123, dp_row0_f_0, t403);
-            let t406 = p_row0_f_1 * t394;
-            let t407 = ::simhc::lanes::Lanes::mul_add(t127, dp_row0_f_1, t406);
-            let t408 = t404 + t407;
-            let t410 = p_row0_f_2 * t401;
-            let t411 = ::simhc::lanes::Lanes::mul_add(t131, dp_row0_f_2, t410);
-            let t412 = t408 + t411;
-            let t413 = t380 + t412;
-            f[0] = t137;
-            j[0] = t278;
-            j[1] = t275;
-            j[2] = t272;
-            j[3] = t269;
-            j[4] = t68;
-            j[5] = t71;
-            j[6] = t74;
-            j[7] = t158;
-            d[0] = t413;
+            out[0] = t40;
+            out[1] = t44;
+            out[2] = t45;
+            out[3] = t46;
+            out[4] = t41;
+            out[5] = t47;
+            out[6] = t48;
+            out[7] = t49;
+            out[8] = t42;
+        }
+        /// Row kernel from the row's parameters `p` (the declaration unexpanded) and the shared part `shared`, one path per lane: residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d`.
+        #[inline(always)]
+        #[allow(clippy::all, unused_variables)]
+        fn __row_param_lanes<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            shared: &[S; 9],
+            p: &[S; 12],
+            dp: &[S; 12],
+            f: &mut [S; 1],
+            j: &mut [S; 8],
+            d: &mut [S; 1],
+        ) {
+            let x_q_0 = x[0];
+            let x_q_1 = x[1];
+            let x_q_2 = x[2];
+            let x_q_3 = x[3];
+            let x_t_0 = x[4];
+            let x_t_1 = x[5];
+            let x_t_2 = x[6];
+            let x_s = x[7];
+            let p_row0_f_0 = p[0];
+            let p_row0_f_1 = p[1];
+            let p_row0_f_2 = p[2];
+            let p_row0_v_0 = p[3];
+            let p_row0_v_1 = p[4];
+            let p_row0_v_2 = p[5];
+            let p_row0_fp_0 = p[6];
+            let p_row0_fp_1 = p[7];
+            let p_row0_fp_2 = p[8];
+            let p_row0_vp_0 = p[9];
+            let p_row0_vp_1 = p[10];
+            let p_row0_vp_2 = p[11];
+            let cf_0 = shared[0];
+            let cf_4 = shared[4];
+            let cf_8 = shared[8];
+            let cf_1 = shared[1];
+            let cf_2 = shared[2];
+            let cf_3 = shared[3];
+            let cf_5 = shared[5];
+            let cf_6 = shared[6];
+            let cf_7 = shared[7];
+            let dp_row0_f_0 = dp[0];
+            let dp_row0_f_1 = dp[1];
+            let dp_row0_f_2 = dp[2];
+            let dp_row0_v_0 = dp[3];
+            let dp_row0_v_1 = dp[4];
+            let dp_row0_v_2 = dp[5];
+            let dp_row0_fp_0 = dp[6];
+            let dp_row0_fp_1 = dp[7];
+            let dp_row0_fp_2 = dp[8];
+            let dp_row0_vp_0 = dp[9];
+            let dp_row0_vp_1 = dp[10];
+            let dp_row0_vp_2 = dp[11];
+            let t31 = p_row0_fp_1 * cf_1;
+            let t32 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, cf_0, t31);
+            let t34 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, cf_2, t32);
+            let t36 = p_row0_fp_1 * cf_4;
+            let t37 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, cf_3, t36);
+            let t39 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, cf_5, t37);
+            let t41 = p_row0_fp_1 * cf_7;
+            let t42 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, cf_6, t41);
+            let t44 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, cf_8, t42);
+            let t46 = p_row0_f_2 * t39;
+            let t47 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_1, t44, t46);
+            let t49 = p_row0_f_0 * t44;
+            let t50 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_2, t34, t49);
+            let t52 = p_row0_f_1 * t34;
+            let t53 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_0, t39, t52);
+            let t55 = x_t_1 * t50;
+            let t56 = ::simhc::lanes::Lanes::mul_add(x_t_0, t47, t55);
+            let t58 = ::simhc::lanes::Lanes::mul_add(x_t_2, t53, t56);
+            let t59 = p_row0_fp_1 * p_row0_vp_2;
+            let t61 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, p_row0_vp_1, t59);
+            let t63 = p_row0_fp_2 * p_row0_vp_0;
+            let t64 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, p_row0_vp_2, t63);
+            let t65 = p_row0_fp_0 * p_row0_vp_1;
+            let t67 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, p_row0_vp_0, t65);
+            let t69 = cf_1 * t64;
+            let t70 = ::simhc::lanes::Lanes::mul_add(cf_0, t61, t69);
+            let t72 = ::simhc::lanes::Lanes::mul_add(cf_2, t67, t70);
+            let t74 = cf_4 * t64;
+            let t75 = ::simhc::lanes::Lanes::mul_add(cf_3, t61, t74);
+            let t77 = ::simhc::lanes::Lanes::mul_add(cf_5, t67, t75);
+            let t79 = cf_7 * t64;
+            let t80 = ::simhc::lanes::Lanes::mul_add(cf_6, t61, t79);
+            let t82 = ::simhc::lanes::Lanes::mul_add(cf_8, t67, t80);
+            let t84 = p_row0_f_1 * t77;
+            let t85 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t72, t84);
+            let t87 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t82, t85);
+            let t89 = ::simhc::lanes::Lanes::neg_mul_add(x_s, t87, t58);
+            let t90 = p_row0_v_2 * t39;
+            let t92 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_1, t44, t90);
+            let t94 = p_row0_v_0 * t44;
+            let t95 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_2, t34, t94);
+            let t96 = p_row0_v_1 * t34;
+            let t98 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_0, t39, t96);
+            let t100 = p_row0_f_1 * t95;
+            let t101 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t92, t100);
+            let t103 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t98, t101);
+            let t104 = t89 + t103;
+            let t106 = p_row0_f_2 * p_row0_v_1;
+            let t107 = p_row0_f_1 * p_row0_v_0;
+            let t109 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_1, p_row0_v_2, t106);
+            let t111 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_0, p_row0_v_1, t107);
+            let t112 = p_row0_f_0 * p_row0_v_2;
+            let t113 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_2, p_row0_v_0, t112);
+            let t114 = -t87;
+            let t115 = x_s * p_row0_f_2;
+            let t116 = x_s * p_row0_f_1;
+            let t117 = x_s * p_row0_f_0;
+            let t118 = t67 * t115;
+            let t119 = t64 * t115;
+            let t120 = t61 * t115;
+            let t121 = t67 * t116;
+            let t122 = t64 * t116;
+            let t123 = t61 * t116;
+            let t124 = t67 * t117;
+            let t125 = t64 * t117;
+            let t126 = t61 * t117;
+            let t128 = ::simhc::lanes::Lanes::neg_mul_add(x_t_2, p_row0_f_1, t109);
+            let t130 = ::simhc::lanes::Lanes::mul_add(x_t_2, p_row0_f_0, t113);
+            let t132 = ::simhc::lanes::Lanes::neg_mul_add(x_t_1, p_row0_f_0, t111);
+            let t134 = ::simhc::lanes::Lanes::mul_add(x_t_1, p_row0_f_2, t128);
+            let t136 = ::simhc::lanes::Lanes::neg_mul_add(x_t_0, p_row0_f_2, t130);
+            let t138 = ::simhc::lanes::Lanes::mul_add(x_t_0, p_row0_f_1, t132);
+            let t140 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t138, t118);
+            let t142 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t138, t119);
+            let t144 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t138, t120);
+            let t146 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t136, t121);
+            let t148 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t136, t122);
+            let t150 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t136, t123);
+            let t152 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t134, t124);
+            let t154 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t134, t125);
+            let t156 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t134, t126);
+            let t157 = t142.scale(2.0);
+            let t158 = t144.scale(2.0);
+            let t159 = t146.scale(2.0);
+            let t160 = t150.scale(2.0);
+            let t161 = t152.scale(2.0);
+            let t162 = t154.scale(2.0);
+            let t163 = t140 + t148;
+            let t164 = t148 - t140;
+            let t165 = t157 + t159;
+            let t166 = t157 - t159;
+            let t167 = t158 + t161;
+            let t168 = t161 - t158;
+            let t169 = t160 + t162;
+            let t170 = t160 - t162;
+            let t171 = t164 - t156;
+            let t172 = t156 + t164;
+            let t173 = t156 + t163;
+            let t174 = t156 - t163;
+            let t179 = x_q_2 * t168;
+            let t180 = ::simhc::lanes::Lanes::mul_add(x_q_1, t166, t179);
+            let t181 = x_q_0 * t168;
+            let t182 = ::simhc::lanes::Lanes::mul_add(x_q_3, t165, t181);
+            let t183 = x_q_3 * t167;
+            let t184 = ::simhc::lanes::Lanes::mul_add(x_q_0, t166, t183);
+            let t185 = x_q_1 * t167;
+            let t186 = ::simhc::lanes::Lanes::mul_add(x_q_2, t165, t185);
+            let t188 = ::simhc::lanes::Lanes::mul_add(x_q_3, t170, t180);
+            let t190 = ::simhc::lanes::Lanes::mul_add(x_q_0, t170, t186);
+            let t192 = ::simhc::lanes::Lanes::mul_add(x_q_2, t169, t184);
+            let t194 = ::simhc::lanes::Lanes::mul_add(x_q_1, t169, t182);
+            let t195 = x_q_3 * t172;
+            let t196 = t190 - t195;
+            let t197 = t196 - t195;
+            let t198 = x_q_2 * t171;
+            let t199 = t194 + t198;
+            let t200 = t198 + t199;
+            let t201 = x_q_1 * t174;
+            let t202 = t192 + t201;
+            let t203 = t201 + t202;
+            let t204 = x_q_0 * t173;
+            let t205 = t188 + t204;
+            let t206 = t204 + t205;
+            let t220 = cf_1 * dp_row0_fp_1;
+            let t221 = ::simhc::lanes::Lanes::mul_add(cf_0, dp_row0_fp_0, t220);
+            let t223 = ::simhc::lanes::Lanes::mul_add(cf_2, dp_row0_fp_2, t221);
+            let t225 = cf_4 * dp_row0_fp_1;
+            let t226 = ::simhc::lanes::Lanes::mul_add(cf_3, dp_row0_fp_0, t225);
+            let t228 = ::simhc::lanes::Lanes::mul_add(cf_5, dp_row0_fp_2, t226);
+            let t230 = cf_7 * dp_row0_fp_1;
+            let t231 = ::simhc::lanes::Lanes::mul_add(cf_6, dp_row0_fp_0, t230);
+            let t233 = ::simhc::lanes::Lanes::mul_add(cf_8, dp_row0_fp_2, t231);
+            let t235 = p_row0_f_1 * t233;
+            let t236 = ::simhc::lanes::Lanes::mul_add(t44, dp_row0_f_1, t235);
+            let t238 = p_row0_f_2 * t228;
+            let t239 = ::simhc::lanes::Lanes::mul_add(t39, dp_row0_f_2, t238);
+            let t240 = t236 - t239;
+            let t242 = p_row0_f_2 * t223;
+            let t243 = ::simhc::lanes::Lanes::mul_add(t34, dp_row0_f_2, t242);
+            let t245 = p_row0_f_0 * t233;
+            let t246 = ::simhc::lanes::Lanes::mul_add(t44, dp_row0_f_0, t245);
+            let t247 = t243 - t246;
+            let t249 = p_row0_f_0 * t228;
+            let t250 = ::simhc::lanes::Lanes::mul_add(t39, dp_row0_f_0, t249);
+            let t252 = p_row0_f_1 * t223;
+            let t253 = ::simhc::lanes::Lanes::mul_add(t34, dp_row0_f_1, t252);
+            let t254 = t250 - t253;
+            let t256 = x_t_1 * t247;
+            let t257 = ::simhc::lanes::Lanes::mul_add(x_t_0, t240, t256);
+            let t259 = ::simhc::lanes::Lanes::mul_add(x_t_2, t254, t257);
+            let t261 = p_row0_fp_1 * dp_row0_vp_2;
+            let t262 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_2, dp_row0_fp_1, t261);
+            let t264 = p_row0_fp_2 * dp_row0_vp_1;
+            let t265 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_1, dp_row0_fp_2, t264);
+            let t266 = t265 - t262;
+            let t268 = p_row0_fp_0 * dp_row0_vp_2;
+            let t269 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_2, dp_row0_fp_0, t268);
+            let t271 = p_row0_fp_2 * dp_row0_vp_0;
+            let t272 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_0, dp_row0_fp_2, t271);
+            let t273 = t269 - t272;
+            let t275 = p_row0_fp_0 * dp_row0_vp_1;
+            let t276 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_1, dp_row0_fp_0, t275);
+            let t278 = p_row0_fp_1 * dp_row0_vp_0;
+            let t279 = ::simhc::lanes::Lanes::mul_add(p_row0_vp_0, dp_row0_fp_1, t278);
+            let t280 = t279 - t276;
+            let t282 = cf_1 * t273;
+            let t283 = ::simhc::lanes::Lanes::mul_add(cf_0, t266, t282);
+            let t285 = ::simhc::lanes::Lanes::mul_add(cf_2, t280, t283);
+            let t287 = cf_4 * t273;
+            let t288 = ::simhc::lanes::Lanes::mul_add(cf_3, t266, t287);
+            let t290 = ::simhc::lanes::Lanes::mul_add(cf_5, t280, t288);
+            let t292 = cf_7 * t273;
+            let t293 = ::simhc::lanes::Lanes::mul_add(cf_6, t266, t292);
+            let t295 = ::simhc::lanes::Lanes::mul_add(cf_8, t280, t293);
+            let t297 = p_row0_f_0 * t285;
+            let t298 = ::simhc::lanes::Lanes::mul_add(t72, dp_row0_f_0, t297);
+            let t300 = p_row0_f_1 * t290;
+            let t301 = ::simhc::lanes::Lanes::mul_add(t77, dp_row0_f_1, t300);
+            let t302 = t298 + t301;
+            let t304 = p_row0_f_2 * t295;
+            let t305 = ::simhc::lanes::Lanes::mul_add(t82, dp_row0_f_2, t304);
+            let t306 = t302 + t305;
+            let t308 = ::simhc::lanes::Lanes::neg_mul_add(x_s, t306, t259);
+            let t310 = p_row0_v_2 * t228;
+            let t311 = ::simhc::lanes::Lanes::mul_add(t39, dp_row0_v_2, t310);
+            let t313 = p_row0_v_1 * t233;
+            let t314 = ::simhc::lanes::Lanes::mul_add(t44, dp_row0_v_1, t313);
+            let t315 = t314 - t311;
+            let t317 = p_row0_v_2 * t223;
+            let t318 = ::simhc::lanes::Lanes::mul_add(t34, dp_row0_v_2, t317);
+            let t320 = p_row0_v_0 * t233;
+            let t321 = ::simhc::lanes::Lanes::mul_add(t44, dp_row0_v_0, t320);
+            let t322 = t318 - t321;
+            let t324 = p_row0_v_1 * t223;
+            let t325 = ::simhc::lanes::Lanes::mul_add(t34, dp_row0_v_1, t324);
+            let t327 = p_row0_v_0 * t228;
+            let t328 = ::simhc::lanes::Lanes::mul_add(t39, dp_row0_v_0, t327);
+            let t329 = t328 - t325;
+            let t331 = p_row0_f_0 * t315;
+            let t332 = ::simhc::lanes::Lanes::mul_add(t92, dp_row0_f_0, t331);
+            let t334 = p_row0_f_1 * t322;
+            let t335 = ::simhc::lanes::Lanes::mul_add(t95, dp_row0_f_1, t334);
+            let t336 = t332 + t335;
+            let t338 = p_row0_f_2 * t329;
+            let t339 = ::simhc::lanes::Lanes::mul_add(t98, dp_row0_f_2, t338);
+            let t340 = t336 + t339;
+            let t341 = t308 + t340;
+            f[0] = t104;
+            j[0] = t206;
+            j[1] = t203;
+            j[2] = t200;
+            j[3] = t197;
+            j[4] = t47;
+            j[5] = t50;
+            j[6] = t53;
+            j[7] = t114;
+            d[0] = t341;
         }
     }
     /// `grps7`: 8 equations in 8 unknowns with 84 parameters (7 rows).
@@ -9648,20 +9676,29 @@ pub mod grps {
             };
             __SimhcRowKernels::__global_lanes(x, f, j);
         }
-        const PARAM_LANES: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
-            12,
-            12,
-        ));
+        const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> = ::core::option::Option::Some(::simhc::ParamRowLayout {
+            row_len: 12,
+            inputs: 12,
+            shared: 9,
+        });
+        #[inline(always)]
+        fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; 8], out: &mut [S]) {
+            if let Ok(out) = <&mut [S; 9]>::try_from(out) {
+                __SimhcRowKernels::__row_param_shared(x, out);
+            }
+        }
         #[inline(always)]
         fn lanes_row_params<S: ::simhc::lanes::Lanes>(
             x: &[S; 8],
+            shared: &[S],
             p: &[S],
             dp: &[S],
             f: &mut [S],
             j: &mut [S],
             d: &mut [S],
         ) {
-            let (Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+            let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 9]>::try_from(shared),
                 <&[S; 12]>::try_from(p),
                 <&[S; 12]>::try_from(dp),
                 <&mut [S; 1]>::try_from(f),
@@ -9670,7 +9707,7 @@ pub mod grps {
             ) else {
                 return;
             };
-            __SimhcRowKernels::__row_param_lanes(x, p, dp, f, j, d);
+            __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             7,
@@ -18984,20 +19021,29 @@ pub mod grps {
             };
             __SimhcRowKernels::__global_lanes(x, f, j);
         }
-        const PARAM_LANES: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
-            12,
-            12,
-        ));
+        const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> = ::core::option::Option::Some(::simhc::ParamRowLayout {
+            row_len: 12,
+            inputs: 12,
+            shared: 9,
+        });
+        #[inline(always)]
+        fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; 8], out: &mut [S]) {
+            if let Ok(out) = <&mut [S; 9]>::try_from(out) {
+                __SimhcRowKernels::__row_param_shared(x, out);
+            }
+        }
         #[inline(always)]
         fn lanes_row_params<S: ::simhc::lanes::Lanes>(
             x: &[S; 8],
+            shared: &[S],
             p: &[S],
             dp: &[S],
             f: &mut [S],
             j: &mut [S],
             d: &mut [S],
         ) {
-            let (Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+            let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 9]>::try_from(shared),
                 <&[S; 12]>::try_from(p),
                 <&[S; 12]>::try_from(dp),
                 <&mut [S; 1]>::try_from(f),
@@ -19006,7 +19052,7 @@ pub mod grps {
             ) else {
                 return;
             };
-            __SimhcRowKernels::__row_param_lanes(x, p, dp, f, j, d);
+            __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
         }
         const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
             8,

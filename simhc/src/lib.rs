@@ -18,7 +18,7 @@ pub mod scalar;
 pub mod simulator;
 pub mod tracker;
 
-pub use problem::{CoefficientForm, ParamDerivative, Problem, ProblemInfo};
+pub use problem::{CoefficientForm, ParamDerivative, ParamRowLayout, Problem, ProblemInfo};
 pub use scalar::Scalar;
 pub use simhc_macros::simhc_problem;
 pub use simulator::{MinNormSimulator, OnlineSimulator, SimulatorError};

@@ -53,6 +53,18 @@ pub trait ParamDerivative<const NX: usize, const NF: usize, const NP: usize>:
     );
 }
 
+/// Where [`CoefficientForm::lanes_row_params`] finds its inputs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ParamRowLayout {
+    /// Parameters of one row: row `r`'s are `p[r * row_len ..][..row_len]`.
+    pub row_len: usize,
+    /// Inputs of the row kernel: the row's `row_len` parameters, then the
+    /// `inputs - row_len` global parameters (stored after all rows).
+    pub inputs: usize,
+    /// Entries of the shared part ([`CoefficientForm::lanes_params_shared`]).
+    pub shared: usize,
+}
+
 /// The system written as linear in a vector of `NC` coefficients that depend on the parameters
 /// only: `F(x; p) = Fc(x; c(p))` with `Fc` affine in `c`.
 ///
@@ -125,27 +137,37 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
         let _ = (x, c, dc, f, j, d);
     }
 
-    /// `Some((row_len, k))` when [`CoefficientForm::lanes_row_params`] is generated (with
-    /// [`CoefficientForm::PATH_LANES`]): row `r`'s parameters are `p[r * row_len ..][..row_len]`,
-    /// followed after all rows by `k - row_len` global parameters.
-    const PARAM_LANES: Option<(usize, usize)> = None;
+    /// `Some(layout)` when [`CoefficientForm::lanes_row_params`] is generated (with
+    /// [`CoefficientForm::PATH_LANES`]).
+    const PARAM_LANES: Option<ParamRowLayout> = None;
+
+    /// The part of [`CoefficientForm::lanes_row_params`] that depends on the unknowns alone, the
+    /// same for every row (GRPS: `rotation(q)`), into `out` (`shared` entries of
+    /// [`ParamRowLayout`]): computed once per evaluation instead of once per row. Wrong lengths
+    /// leave `out` untouched. The default does nothing.
+    #[inline(always)]
+    fn lanes_params_shared<L: crate::lanes::Lanes>(x: &[L; NX], out: &mut [L]) {
+        let _ = (x, out);
+    }
 
     /// [`CoefficientForm::lanes_row`] from the row's *parameters* instead of its coefficients:
-    /// from the unknowns `x`, the row's `k` parameters `p` (its own, then the globals) and a
-    /// direction `dp` of them, the residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d`
-    /// (`dH/dt` for `dp = dp/dt`). Generated from the declaration without expanding it, so it
-    /// keeps shared structure (`rotation(q)` once) that the coefficient form multiplies out.
+    /// from the unknowns `x`, their shared part ([`CoefficientForm::lanes_params_shared`]), the
+    /// row's `inputs` parameters `p` (its own, then the globals) and a direction `dp` of them,
+    /// the residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d` (`dH/dt` for
+    /// `dp = dp/dt`). Generated from the declaration without expanding it (reverse mode for `j`,
+    /// forward mode for `d`), so it keeps the structure the coefficient form multiplies out.
     /// Wrong lengths leave the outputs untouched. The default does nothing.
     #[inline(always)]
     fn lanes_row_params<L: crate::lanes::Lanes>(
         x: &[L; NX],
+        shared: &[L],
         p: &[L],
         dp: &[L],
         f: &mut [L],
         j: &mut [L],
         d: &mut [L],
     ) {
-        let _ = (x, p, dp, f, j, d);
+        let _ = (x, shared, p, dp, f, j, d);
     }
 
     /// The global equations' residuals `f` (`NF - rows * epr`) and Jacobian rows `j`

@@ -51,7 +51,7 @@ pub struct Dag {
 }
 
 impl Dag {
-    fn intern(&mut self, node: Node) -> NodeId {
+    pub(crate) fn intern(&mut self, node: Node) -> NodeId {
         // Commutative operations are stored with ordered operands so `a*b` and `b*a` coincide.
         let node = match node {
             Node::Add(a, b) if b < a => Node::Add(b, a),

@@ -888,14 +888,37 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
         });
         d.push((n(i).into_token_stream(), moved));
     }
-    let body = render_lanes(&dag, &vars, &[(quote!(f), &f), (quote!(j), &j), (quote!(d), &d)]);
-    let (nx, k_t, epr_t, ej, row_len_t) = (n(shape.nx), n(k), n(epr), n(epr * shape.nx), n(row_len));
+    // The part that depends on `x` alone (GRPS: `rotation(q)`) is the same for every row: it is
+    // computed once per operation (`lanes_params_shared`) and read by the row kernel.
+    let outputs: Vec<NodeId> = f.iter().chain(&j).chain(&d).map(|(_, id)| *id).collect();
+    let (row_dag, shared) = hoist_x_only(&dag, &outputs);
+    let remap = |entries: &[(TokenStream, NodeId)], map: &[Option<NodeId>]| -> Vec<(TokenStream, NodeId)> {
+        entries.iter().map(|(t, id)| (t.clone(), map[id.0 as usize].unwrap_or(*id))).collect()
+    };
+    let (fr, jr, dr) = (remap(&f, &row_dag.1), remap(&j, &row_dag.1), remap(&d, &row_dag.1));
+    let body = rename_array(
+        render_lanes(&row_dag.0, &vars, &[(quote!(f), &fr), (quote!(j), &jr), (quote!(d), &dr)]),
+        "c",
+        "shared",
+    );
+    let shared_entries: Vec<(TokenStream, NodeId)> =
+        shared.iter().enumerate().map(|(slot, id)| (n(slot).into_token_stream(), *id)).collect();
+    let shared_body = render_lanes(&dag, &vars, &[(quote!(out), &shared_entries)]);
+    let ns = shared.len();
+    let (nx, k_t, epr_t, ej, row_len_t, ns_t) = (n(shape.nx), n(k), n(epr), n(epr * shape.nx), n(row_len), n(ns));
     let kernel = quote! {
-        #[doc = " Row kernel from the row's parameters `p` (the declaration unexpanded), one path per lane: residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d`."]
+        #[doc = " The part of the parameter row kernel that depends on the unknowns only (the same for every row), one path per lane."]
+        #[inline(always)]
+        #[allow(clippy::all, unused_variables)]
+        fn __row_param_shared<S: ::simhc::lanes::Lanes>(x: &[S; #nx], out: &mut [S; #ns_t]) {
+            #shared_body
+        }
+        #[doc = " Row kernel from the row's parameters `p` (the declaration unexpanded) and the shared part `shared`, one path per lane: residuals `f`, Jacobian rows `j` and `dF/dp * dp` in `d`."]
         #[inline(always)]
         #[allow(clippy::all, unused_variables)]
         fn __row_param_lanes<S: ::simhc::lanes::Lanes>(
             x: &[S; #nx],
+            shared: &[S; #ns_t],
             p: &[S; #k_t],
             dp: &[S; #k_t],
             f: &mut [S; #epr_t],
@@ -906,17 +929,26 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
         }
     };
     let items = quote! {
-        const PARAM_LANES: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((#row_len_t, #k_t));
+        const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> =
+            ::core::option::Option::Some(::simhc::ParamRowLayout { row_len: #row_len_t, inputs: #k_t, shared: #ns_t });
+        #[inline(always)]
+        fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; #nx], out: &mut [S]) {
+            if let Ok(out) = <&mut [S; #ns_t]>::try_from(out) {
+                __SimhcRowKernels::__row_param_shared(x, out);
+            }
+        }
         #[inline(always)]
         fn lanes_row_params<S: ::simhc::lanes::Lanes>(
             x: &[S; #nx],
+            shared: &[S],
             p: &[S],
             dp: &[S],
             f: &mut [S],
             j: &mut [S],
             d: &mut [S],
         ) {
-            let (Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+            let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; #ns_t]>::try_from(shared),
                 <&[S; #k_t]>::try_from(p),
                 <&[S; #k_t]>::try_from(dp),
                 <&mut [S; #epr_t]>::try_from(f),
@@ -925,10 +957,73 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
             ) else {
                 return;
             };
-            __SimhcRowKernels::__row_param_lanes(x, p, dp, f, j, d);
+            __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
         }
     };
     (kernel, items)
+}
+
+/// Splits the DAG of `outputs` at the nodes that depend on the unknowns alone: returns a copy
+/// (the row DAG, with `map[i]` the copy of node `i`) in which each such node that a node
+/// depending on the parameters (or an output) reads becomes a leaf `Node::C(slot)`, and the
+/// original nodes of those slots, in slot order. Interior nodes only: leaves and constants are
+/// as cheap to load as a slot.
+fn hoist_x_only(dag: &Dag, outputs: &[NodeId]) -> ((Dag, Vec<Option<NodeId>>), Vec<NodeId>) {
+    let live = dag.reachable(outputs);
+    let len = dag.nodes.len();
+    let mut x_only = vec![false; len];
+    for (i, node) in dag.nodes.iter().enumerate() {
+        x_only[i] = match *node {
+            Node::X(_) | Node::Const(_) => true,
+            Node::P(_) | Node::Dp(_) | Node::C(_) => false,
+            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => x_only[a.0 as usize] && x_only[b.0 as usize],
+            Node::Neg(a) => x_only[a.0 as usize],
+        };
+    }
+    let interior = |i: usize| !matches!(dag.nodes[i], Node::X(_) | Node::Const(_));
+    // Slots: x-only interior nodes read by a parameter-dependent node, or outputs.
+    let mut slot_of = vec![None; len];
+    let mut shared = Vec::new();
+    let mut take = |i: usize, slot_of: &mut Vec<Option<usize>>| {
+        if x_only[i] && interior(i) && slot_of[i].is_none() {
+            slot_of[i] = Some(shared.len());
+            shared.push(NodeId(i as u32));
+        }
+    };
+    for (i, node) in dag.nodes.iter().enumerate() {
+        if !live[i] || x_only[i] {
+            continue;
+        }
+        match *node {
+            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+                take(a.0 as usize, &mut slot_of);
+                take(b.0 as usize, &mut slot_of);
+            }
+            Node::Neg(a) => take(a.0 as usize, &mut slot_of),
+            _ => {}
+        }
+    }
+    for o in outputs {
+        take(o.0 as usize, &mut slot_of);
+    }
+    let mut row = Dag::default();
+    let mut map: Vec<Option<NodeId>> = vec![None; len];
+    for (i, node) in dag.nodes.iter().enumerate() {
+        if !live[i] {
+            continue;
+        }
+        let m = |id: NodeId| map[id.0 as usize].unwrap_or(id);
+        map[i] = Some(match (slot_of[i], node) {
+            (Some(slot), _) => row.intern(Node::C(slot as u32)),
+            (None, _) if x_only[i] && interior(i) => continue,
+            (None, Node::Add(a, b)) => row.intern(Node::Add(m(*a), m(*b))),
+            (None, Node::Sub(a, b)) => row.intern(Node::Sub(m(*a), m(*b))),
+            (None, Node::Mul(a, b)) => row.intern(Node::Mul(m(*a), m(*b))),
+            (None, Node::Neg(a)) => row.intern(Node::Neg(m(*a))),
+            (None, leaf) => row.intern(leaf.clone()),
+        });
+    }
+    ((row, map), shared)
 }
 
 /// The global rows of the linear part `sum_k dc_k m_k(x)` into `out`, as scalar code.
@@ -943,8 +1038,13 @@ fn global_linear(eqs: &[crate::poly::Poly], vars: &VarTable, shape: RowShape) ->
 /// Kernel bodies read their row inputs from `r`: the renderer loads parameters from `p[..]` and
 /// coefficients from `c[..]`; rename the array of the kernel's row input (`from`) to `r`.
 fn rename_row_input(body: TokenStream, from: &str) -> TokenStream {
+    rename_array(body, from, "r")
+}
+
+/// Renames the indexed array `from[..]` of a rendered body to `to[..]`.
+fn rename_array(body: TokenStream, from: &str, to: &str) -> TokenStream {
     use proc_macro2::{Group, TokenTree};
-    fn walk(ts: TokenStream, from: &str) -> TokenStream {
+    fn walk(ts: TokenStream, from: &str, to: &str) -> TokenStream {
         let mut out = Vec::new();
         let mut iter = ts.into_iter().peekable();
         while let Some(tt) = iter.next() {
@@ -952,13 +1052,13 @@ fn rename_row_input(body: TokenStream, from: &str) -> TokenStream {
                 TokenTree::Ident(ref id) if id == from => {
                     // Only an indexing `from[..]`.
                     if matches!(iter.peek(), Some(TokenTree::Group(g)) if g.delimiter() == proc_macro2::Delimiter::Bracket) {
-                        out.push(TokenTree::Ident(Ident::new("r", id.span())));
+                        out.push(TokenTree::Ident(Ident::new(to, id.span())));
                     } else {
                         out.push(tt);
                     }
                 }
                 TokenTree::Group(g) => {
-                    let mut ng = Group::new(g.delimiter(), walk(g.stream(), from));
+                    let mut ng = Group::new(g.delimiter(), walk(g.stream(), from, to));
                     ng.set_span(g.span());
                     out.push(TokenTree::Group(ng));
                 }
@@ -967,7 +1067,7 @@ fn rename_row_input(body: TokenStream, from: &str) -> TokenStream {
         }
         out.into_iter().collect()
     }
-    walk(body, from)
+    walk(body, from, to)
 }
 
 /// Whether the coefficient table of the full instance is `rows` consecutive copies of the

@@ -229,9 +229,10 @@ where
 {
     use simhc::lanes::{Lanes, C64x4, LANES};
     type C = Complex<f64>;
-    let (Some(epr), Some((rows, _)), Some((row_len, k))) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES) else {
+    let (Some(epr), Some((rows, _)), Some(layout)) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES) else {
         return false;
     };
+    let (row_len, k) = (layout.row_len, layout.inputs);
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x1a7e5);
     let xs: Vec<SVector<C, NX>> = (0..LANES).map(|_| random_vec(&mut rng, true)).collect();
     let ps: Vec<SVector<C, NP>> = (0..LANES).map(|_| random_vec(&mut rng, true)).collect();
@@ -251,6 +252,8 @@ where
             (f, j, d)
         })
         .collect();
+    let mut shared = vec![C64x4::from_real(f64::NAN); layout.shared];
+    P::lanes_params_shared(&xl, &mut shared);
     for r in 0..rows {
         // Row r's inputs: its own parameters, then the globals stored after all rows.
         let src = |i: usize| if i < row_len { r * row_len + i } else { rows * row_len + (i - row_len) };
@@ -265,7 +268,7 @@ where
         let mut f = vec![C64x4::from_real(f64::NAN); epr];
         let mut j = vec![C64x4::from_real(f64::NAN); epr * NX];
         let mut d = vec![C64x4::from_real(f64::NAN); epr];
-        P::lanes_row_params(&xl, &pl, &dpl, &mut f, &mut j, &mut d);
+        P::lanes_row_params(&xl, &shared, &pl, &dpl, &mut f, &mut j, &mut d);
         for (l, (fe, je, de)) in expected.iter().enumerate() {
             let (fs, js, ds) = (fe.camax(), je.camax(), de.camax());
             for e in 0..epr {

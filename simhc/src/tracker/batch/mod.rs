@@ -59,6 +59,8 @@ pub struct LaneSystem<P, const N: usize, const NC: usize> {
     epr: usize,
     /// Whether the row inputs are parameters (`lanes_row_params`), not coefficients.
     params: bool,
+    /// Entries of the parameter kernel's shared part (`lanes_params_shared`).
+    shared: usize,
     _problem: PhantomData<fn() -> P>,
 }
 
@@ -83,7 +85,7 @@ impl<P, const N: usize, const NC: usize> LaneSystem<P, N, NC> {
                 c[i * terms + k] = pk[i];
             }
         }
-        Some(Self { c, terms, rows, per_row, epr, params: false, _problem: PhantomData })
+        Some(Self { c, terms, rows, per_row, epr, params: false, shared: 0, _problem: PhantomData })
     }
 
     /// The system along the parameter path `p(t) = sum_k t^k poly[k]` (e.g. `[p0, p1 - p0]`
@@ -94,10 +96,10 @@ impl<P, const N: usize, const NC: usize> LaneSystem<P, N, NC> {
     where
         P: CoefficientForm<N, N, NP, NC>,
     {
-        let (Some(epr), Some((rows, _)), Some((row_len, k))) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES)
-        else {
+        let (Some(epr), Some((rows, _)), Some(layout)) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES) else {
             return None;
         };
+        let (row_len, k) = (layout.row_len, layout.inputs);
         if poly.is_empty() || rows == 0 || k < row_len || rows * row_len + (k - row_len) != NP || rows * epr > N {
             return None;
         }
@@ -112,7 +114,7 @@ impl<P, const N: usize, const NC: usize> LaneSystem<P, N, NC> {
                 }
             }
         }
-        Some(Self { c, terms, rows, per_row: k, epr, params: true, _problem: PhantomData })
+        Some(Self { c, terms, rows, per_row: k, epr, params: true, shared: layout.shared, _problem: PhantomData })
     }
 }
 
@@ -215,7 +217,8 @@ struct Operation<'a, P, const N: usize, const NP: usize, const NC: usize, const 
     u: &'a mut [Wide<W, FMA>; N],
     v: &'a mut [Wide<W, FMA>; N],
     status: &'a mut [Factor; W],
-    /// Scratch for one row's coefficients and their derivatives (`2 * per_row`).
+    /// Scratch for one row's inputs and their derivatives (`2 * per_row`), then the parameter
+    /// kernel's shared part.
     scratch: &'a mut [Wide<W, FMA>],
 }
 
@@ -231,7 +234,11 @@ where
         let mut j = [[Wide::<W, FMA>::default(); N]; N];
         let mut f = [Wide::<W, FMA>::default(); N];
         let mut d = [Wide::<W, FMA>::default(); N];
-        let (cl, dcl) = op.scratch.split_at_mut(s.per_row);
+        let (cl, rest) = op.scratch.split_at_mut(s.per_row);
+        let (dcl, shared) = rest.split_at_mut(s.per_row);
+        if s.params {
+            P::lanes_params_shared(op.x, shared);
+        }
         for r in 0..s.rows {
             let row = &s.c[r * s.per_row * s.terms..(r + 1) * s.per_row * s.terms];
             // The degree is fixed per system: one branch per row, not per coefficient.
@@ -249,9 +256,9 @@ where
             let (e0, e1) = (r * s.epr, (r + 1) * s.epr);
             let (fr, jr, dr) = (&mut f[e0..e1], &mut j.as_flattened_mut()[e0 * N..e1 * N], &mut d[e0..e1]);
             if s.params {
-                P::lanes_row_params(op.x, &*cl, &dcl[..s.per_row], fr, jr, dr);
+                P::lanes_row_params(op.x, &*shared, &*cl, &*dcl, fr, jr, dr);
             } else {
-                P::lanes_row(op.x, &*cl, &dcl[..s.per_row], fr, jr, dr);
+                P::lanes_row(op.x, &*cl, &*dcl, fr, jr, dr);
             }
         }
         let g = s.rows * s.epr;
@@ -771,7 +778,7 @@ fn track_lanes<P, H, Q, const N: usize, const NP: usize, const NC: usize, const 
     Q: PathQueue<N>,
 {
     let mut slots: [Option<(PathJob, Path<N>)>; W] = [None; W];
-    let mut scratch = vec![Wide::<W, FMA>::default(); 2 * system.per_row];
+    let mut scratch = vec![Wide::<W, FMA>::default(); 2 * system.per_row + system.shared];
     // Fills a free lane with the queue's next path that starts cleanly.
     let refill = |slot: &mut Option<(PathJob, Path<N>)>, queue: &mut Q| {
         while let Some(job) = queue.next() {

@@ -1,7 +1,9 @@
 //! Where the GRPS7 all-roots time goes: per-evaluation costs of the generated code, and step
 //! statistics of the 140 paths of a few noise-free solves (the homotopy of `solve_grps7`,
 //! without its path-jump repair and polishing), tracked one path at a time and with the batch
-//! tracker (`simhc::tracker::batch`, one path per SIMD lane).
+//! tracker (`simhc::tracker::batch`, one path per SIMD lane) with either row kernel: from each
+//! row's parameters (the default of `solve_grps7`; `BATCHONLY=1` times it alone) and from the
+//! coefficients of the expansion (`BATCHONLY=coefficients`).
 //!
 //! ```sh
 //! cargo run --release -p simhc-problems --example allroots_diag -- 3   # seeds 0..3
@@ -115,24 +117,33 @@ fn main() {
         }
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let k = start.solutions.len() as f64;
-        if let Some(system) = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly()) {
+        let coefficients = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly());
+        let parameters =
+            LaneSystem::<Grps7, 8, { Grps7::NC }>::from_parameter_path::<84>(&h.parameter_path().param_poly());
+        if let (Some(coefficients), Some(parameters)) = (coefficients, parameters) {
             let all: Vec<usize> = (0..start.solutions.len()).collect();
-            if std::env::var("BATCHONLY").is_ok() {
+            let batch = |system: &LaneSystem<Grps7, 8, { Grps7::NC }>| {
+                track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(system, &h, &start.solutions, &all, &options.tracker)
+            };
+            if let Ok(which) = std::env::var("BATCHONLY") {
+                let system = if which == "coefficients" { &coefficients } else { &parameters };
                 for _ in 0..20 {
-                    black_box(track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &all, &options.tracker));
+                    black_box(batch(system));
                 }
                 continue;
             }
-            let t1 = Instant::now();
-            let paths = track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &all, &options.tracker);
-            let batch_ms = t1.elapsed().as_secs_f64() * 1e3;
-            let paths = paths.unwrap_or_default();
-            let ops: usize = paths.iter().flatten().map(|r| r.stats.factorizations).sum();
-            let failed = paths.iter().filter(|r| r.is_err()).count();
-            println!(
-                "  seed {seed}: batch tracker (path lanes) {batch_ms:.1} ms; {:.1} operations per path; {failed} failed",
-                ops as f64 / k
-            );
+            for (kernel, system) in [("parameter rows", &parameters), ("coefficient rows", &coefficients)] {
+                let t1 = Instant::now();
+                let paths = batch(system);
+                let batch_ms = t1.elapsed().as_secs_f64() * 1e3;
+                let paths = paths.unwrap_or_default();
+                let ops: usize = paths.iter().flatten().map(|r| r.stats.factorizations).sum();
+                let failed = paths.iter().filter(|r| r.is_err()).count();
+                println!(
+                    "  seed {seed}: batch tracker (path lanes, {kernel}) {batch_ms:.1} ms; {:.1} operations per path; {failed} failed",
+                    ops as f64 / k
+                );
+            }
             let t2 = Instant::now();
             let full = solve_grps7(&target, &options);
             let full_ms = t2.elapsed().as_secs_f64() * 1e3;

@@ -8,6 +8,12 @@
 //! earlier sum-of-shared-monomials form for the coefficient form measured slower everywhere
 //! (GRPS7 complex residual + Jacobian 0.67 against 0.41 us; UPnP tracking 7.5 against 4.4 us)
 //! and was removed.
+//!
+//! The DAG is also a target of its own: [`DagAlgebra`] lowers a declaration onto nodes without
+//! expanding it, and [`Dag::gradient`] (reverse mode) and [`Dag::derivative`] (forward mode)
+//! differentiate such straight-line code; the emitter uses them for the batch tracker's row
+//! kernel from the parameters, where the unexpanded form is cheaper (GRPS: the rotation formed
+//! once instead of multiplied into 38 coefficients per row).
 
 use crate::lower::VarTable;
 use crate::poly::{Monomial, Poly, Var};

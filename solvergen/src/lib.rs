@@ -4,6 +4,9 @@
 //! parse ([`decl`]) -> validate and lower to sparse polynomials ([`lower`], [`poly`]) ->
 //! exact differentiation -> hash-consed DAG with common subexpressions shared ([`dag`]) ->
 //! straight-line Rust ([`emit`]), formatted with prettyplease for review and for `generated/`.
+//! The batch tracker's row kernel from the parameters skips the expansion: the same evaluator
+//! lowers the equations onto DAG nodes ([`lower::Algebra`], [`dag::DagAlgebra`]), differentiated
+//! there by reverse mode (`x`-gradient) and forward mode (`dF/dp * dp`).
 //!
 //! The engine is deterministic: the same declaration gives byte-identical output.
 

@@ -9676,10 +9676,12 @@ pub mod grps {
             };
             __SimhcRowKernels::__global_lanes(x, f, j);
         }
+        /// Estimated operations per row: 317 from the parameters, 578 from the coefficients.
         const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> = ::core::option::Option::Some(::simhc::ParamRowLayout {
             row_len: 12,
             inputs: 12,
             shared: 9,
+            preferred: true,
         });
         #[inline(always)]
         fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; 8], out: &mut [S]) {
@@ -19021,10 +19023,12 @@ pub mod grps {
             };
             __SimhcRowKernels::__global_lanes(x, f, j);
         }
+        /// Estimated operations per row: 316 from the parameters, 578 from the coefficients.
         const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> = ::core::option::Option::Some(::simhc::ParamRowLayout {
             row_len: 12,
             inputs: 12,
             shared: 9,
+            preferred: true,
         });
         #[inline(always)]
         fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; 8], out: &mut [S]) {

@@ -63,6 +63,12 @@ pub struct ParamRowLayout {
     pub inputs: usize,
     /// Entries of the shared part ([`CoefficientForm::lanes_params_shared`]).
     pub shared: usize,
+    /// Whether solvergen estimates this kernel cheaper than the coefficient form's
+    /// ([`CoefficientForm::lanes_row`] plus the Horner pass for the coefficients): operation
+    /// counts of the two, written in the generated docs of `PARAM_LANES`. A declaration that
+    /// keeps structure (GRPS: `rotation(q)` times vectors) favours the parameters; one written
+    /// out as a long polynomial may favour the coefficients.
+    pub preferred: bool,
 }
 
 /// The system written as linear in a vector of `NC` coefficients that depend on the parameters

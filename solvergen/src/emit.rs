@@ -611,9 +611,8 @@ struct RowKernels {
     one: Instance,
     shape: RowShape,
     row_len: usize,
-    /// The row kernel from the row's parameters, unexpanded, and the trait items that call it
-    /// (see [`param_lanes`]).
-    param_lanes: (TokenStream, TokenStream),
+    /// The row kernel from the row's parameters, unexpanded (see [`param_lanes`]).
+    param_lanes: ParamLanes,
 }
 
 impl RowKernels {
@@ -672,15 +671,22 @@ impl RowKernels {
         let shape = self.shape;
         let nc1 = one_split.table.len();
         let vars = &one_split.vars;
+        let ids = |entries: &[&Outputs]| -> Vec<NodeId> { entries.iter().flat_map(|e| e.iter().map(|(_, id)| *id)).collect() };
         let mut dag = Dag::default();
         let (f, j) = row_outputs(&mut dag, &one_split.equations, vars, shape, true);
         let k_fused = rename_row_input(render_lanes(&dag, vars, &[(quote!(f), &f), (quote!(j), &j)]), "c");
+        let mut coefficient_ops = dag.op_count(&ids(&[&f, &j]));
         let mut dag = Dag::default();
         let (f, _) = row_outputs(&mut dag, &one_split.equations, vars, shape, false);
         let k_residual = rename_row_input(render_lanes(&dag, vars, &[(quote!(f), &f)]), "c");
         let mut dag = Dag::default();
         let (f, _) = row_outputs(&mut dag, &one_split.linear, vars, shape, false);
         let k_linear = rename_row_input(render_lanes(&dag, vars, &[(quote!(f), &f)]), "c");
+        // The path-lane operation evaluates the fused and the linear kernel, after a Horner pass
+        // for `c(t)` and `c'(t)` of each coefficient (about two operations per degree in `t`; on
+        // a straight parameter segment the degree of `c` in `p`).
+        let degree = one_split.table.iter().map(|c| c.degree() as usize).max().unwrap_or(0);
+        coefficient_ops += dag.op_count(&ids(&[&f])) + nc1 * 2 * degree;
 
         let lp = |kernel: &str, src: TokenStream, with_j: bool, f_out: TokenStream, j_out: Option<TokenStream>| {
             row_loop(shape, kernel, src, nc1, nc1, with_j, Some(f_out), j_out)
@@ -765,7 +771,9 @@ impl RowKernels {
             ];
             let wrapped = dispatched(&args, body);
             let (kernel, lanes_items) = self.path_lanes(&split.equations, &split.vars, nc1);
-            let (param_kernel, param_items) = &self.param_lanes;
+            let param = &self.param_lanes;
+            let param_kernel = &param.kernel;
+            let param_items = param.items(param.ops < coefficient_ops, coefficient_ops);
             lane_kernel = quote!(#kernel #param_kernel);
             let lanes_items = quote!(#lanes_items #param_items);
             quote! {
@@ -868,9 +876,8 @@ impl RowKernels {
 /// `dF/dp * dp` by forward mode on that DAG. The batch tracker feeds it `p(t)` and `dp/dt`
 /// (`k` entries per row: the row's `row_len` parameters, then the globals) instead of the
 /// coefficients of the expansion, which need a Horner pass over many more entries per row
-/// (GRPS: 12 parameters against 38 coefficients). Returns the kernel item and the trait items
-/// `PARAM_LANES` and `lanes_row_params`.
-fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usize) -> (TokenStream, TokenStream) {
+/// (GRPS: 12 parameters against 38 coefficients).
+fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usize) -> ParamLanes {
     let mut dag = Dag::default();
     let (eqs, vars, epr, _) =
         crate::lower::evaluate(&mut crate::dag::DagAlgebra { dag: &mut dag, nx: one.vars.nx() }, None, decl, 1);
@@ -905,7 +912,10 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
         shared.iter().enumerate().map(|(slot, id)| (n(slot).into_token_stream(), *id)).collect();
     let shared_body = render_lanes(&dag, &vars, &[(quote!(out), &shared_entries)]);
     let ns = shared.len();
-    let (nx, k_t, epr_t, ej, row_len_t, ns_t) = (n(shape.nx), n(k), n(epr), n(epr * shape.nx), n(row_len), n(ns));
+    // Per row: the kernel, its share of the shared part, and one operation per input for `p(t)`.
+    let row_ids: Vec<NodeId> = fr.iter().chain(&jr).chain(&dr).map(|(_, id)| *id).collect();
+    let ops = row_dag.0.op_count(&row_ids) + dag.op_count(&shared).div_ceil(shape.rows.max(1)) + k;
+    let (nx, k_t, epr_t, ej, ns_t) = (n(shape.nx), n(k), n(epr), n(epr * shape.nx), n(ns));
     let kernel = quote! {
         #[doc = " The part of the parameter row kernel that depends on the unknowns only (the same for every row), one path per lane."]
         #[inline(always)]
@@ -928,39 +938,7 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
             #body
         }
     };
-    let items = quote! {
-        const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> =
-            ::core::option::Option::Some(::simhc::ParamRowLayout { row_len: #row_len_t, inputs: #k_t, shared: #ns_t });
-        #[inline(always)]
-        fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; #nx], out: &mut [S]) {
-            if let Ok(out) = <&mut [S; #ns_t]>::try_from(out) {
-                __SimhcRowKernels::__row_param_shared(x, out);
-            }
-        }
-        #[inline(always)]
-        fn lanes_row_params<S: ::simhc::lanes::Lanes>(
-            x: &[S; #nx],
-            shared: &[S],
-            p: &[S],
-            dp: &[S],
-            f: &mut [S],
-            j: &mut [S],
-            d: &mut [S],
-        ) {
-            let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
-                <&[S; #ns_t]>::try_from(shared),
-                <&[S; #k_t]>::try_from(p),
-                <&[S; #k_t]>::try_from(dp),
-                <&mut [S; #epr_t]>::try_from(f),
-                <&mut [S; #ej]>::try_from(j),
-                <&mut [S; #epr_t]>::try_from(d),
-            ) else {
-                return;
-            };
-            __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
-        }
-    };
-    (kernel, items)
+    ParamLanes { kernel, ops, nx: shape.nx, k, epr, ej: epr * shape.nx, row_len, shared: ns }
 }
 
 /// Splits the DAG of `outputs` at the nodes that depend on the unknowns alone: returns a copy
@@ -1024,6 +1002,65 @@ fn hoist_x_only(dag: &Dag, outputs: &[NodeId]) -> ((Dag, Vec<Option<NodeId>>), V
         });
     }
     ((row, map), shared)
+}
+
+/// The parameter row kernel of [`param_lanes`] and what its trait items need.
+struct ParamLanes {
+    /// The kernel items (`__row_param_shared`, `__row_param_lanes`).
+    kernel: TokenStream,
+    /// Estimated operations per row (see [`param_lanes`]).
+    ops: usize,
+    nx: usize,
+    k: usize,
+    epr: usize,
+    ej: usize,
+    row_len: usize,
+    shared: usize,
+}
+
+impl ParamLanes {
+    /// The trait items `PARAM_LANES`, `lanes_params_shared`, `lanes_row_params`; `preferred`
+    /// when the estimate is below the coefficient kernel's (`coefficient_ops`).
+    fn items(&self, preferred: bool, coefficient_ops: usize) -> TokenStream {
+        let (nx, k_t, epr_t, ej, row_len_t, ns_t) = (n(self.nx), n(self.k), n(self.epr), n(self.ej), n(self.row_len), n(self.shared));
+        let doc = format!(
+            " Estimated operations per row: {} from the parameters, {} from the coefficients.",
+            self.ops, coefficient_ops
+        );
+        quote! {
+            #[doc = #doc]
+            const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> =
+                ::core::option::Option::Some(::simhc::ParamRowLayout { row_len: #row_len_t, inputs: #k_t, shared: #ns_t, preferred: #preferred });
+            #[inline(always)]
+            fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; #nx], out: &mut [S]) {
+                if let Ok(out) = <&mut [S; #ns_t]>::try_from(out) {
+                    __SimhcRowKernels::__row_param_shared(x, out);
+                }
+            }
+            #[inline(always)]
+            fn lanes_row_params<S: ::simhc::lanes::Lanes>(
+                x: &[S; #nx],
+                shared: &[S],
+                p: &[S],
+                dp: &[S],
+                f: &mut [S],
+                j: &mut [S],
+                d: &mut [S],
+            ) {
+                let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                    <&[S; #ns_t]>::try_from(shared),
+                    <&[S; #k_t]>::try_from(p),
+                    <&[S; #k_t]>::try_from(dp),
+                    <&mut [S; #epr_t]>::try_from(f),
+                    <&mut [S; #ej]>::try_from(j),
+                    <&mut [S; #epr_t]>::try_from(d),
+                ) else {
+                    return;
+                };
+                __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
+            }
+        }
+    }
 }
 
 /// The global rows of the linear part `sum_k dc_k m_k(x)` into `out`, as scalar code.

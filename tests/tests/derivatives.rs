@@ -330,6 +330,9 @@ proptest! {
         check_coefficients_both::<grps::Grps7, 8, 8, 84, 266>(seed);
         check_coefficients_both::<grps::Grps8, 8, 9, 96, 304>(seed);
         prop_assert!(check_param_lanes::<grps::Grps7, 8, 8, 84, 266>(seed));
+        // The operation counts favour the unexpanded rows (rotation(q) kept): the batch
+        // tracker uses them by default.
+        prop_assert!(<grps::Grps7 as CoefficientForm<8, 8, 84, 266>>::PARAM_LANES.is_some_and(|l| l.preferred));
         prop_assert!(check_param_lanes::<grps::Grps8, 8, 9, 96, 304>(seed));
     }
 

@@ -88,7 +88,8 @@ pub struct AllRootsOptions {
     pub lane_isa: Option<LaneIsa>,
     /// The batch tracker's row kernel: `true` (default) evaluates each row from its parameters
     /// `p(t)` ([`CoefficientForm::lanes_row_params`], the unexpanded declaration) where the
-    /// problem has it, `false` from the coefficients of the expansion
+    /// problem has it and solvergen estimates it cheaper ([`crate::ParamRowLayout::preferred`]),
+    /// `false` always from the coefficients of the expansion
     /// ([`CoefficientForm::lanes_row`]). The same paths either way, to rounding (GRPS7: 0.8x the
     /// time with parameters); `false` is there to compare them.
     pub param_lanes: bool,
@@ -309,8 +310,7 @@ where
     };
     let isa = options.lane_isa.unwrap_or_else(LaneIsa::detect);
     let lanes = if options.batch && batch_supported(&options.tracker) && isa.available() {
-        options
-            .param_lanes
+        (options.param_lanes && P::PARAM_LANES.is_some_and(|layout| layout.preferred))
             .then(|| LaneSystem::<P, N, NC>::from_parameter_path::<NP>(&h.parameter_path().param_poly()))
             .flatten()
             .or_else(|| LaneSystem::<P, N, NC>::new::<NP>(h.coefficient_poly()))

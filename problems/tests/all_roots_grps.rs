@@ -445,3 +445,42 @@ fn batch_tracker_reports_bad_input_per_path() {
     assert!(!track_batch_queue::<Grps7, _, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &starts, &settings, &mut queue));
     assert!(queue.1.is_empty(), "nothing tracked");
 }
+
+/// The batch tracker's parameter rows along a *bent* parameter path (`p(t)` quadratic in `t`:
+/// three Horner terms per input, `ParameterHomotopy::param_poly`) follow the same paths as the
+/// one-path tracker on that homotopy.
+#[test]
+fn parameter_rows_follow_a_bent_path() {
+    use rand::SeedableRng;
+    use simhc::all_roots::all_roots_tracker;
+    use simhc::homotopy::ParameterHomotopy;
+    use simhc::monodromy::random_complex_vector;
+    use simhc::tracker::batch::{track_batch, LaneSystem};
+    use simhc::tracker::track;
+    use simhc_problems::start_systems::grps7_aligned_target;
+    let start = grps7_start();
+    let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(3).unwrap();
+    let target = Grps7::params(&grps::rows_of::<7>(&scene.correspondences).unwrap());
+    let aligned = grps7_aligned_target(&start.params, &target);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let bend = random_complex_vector::<84>(&mut rng, 0.2 * (aligned - start.params).norm() / 84f64.sqrt());
+    let h = ParameterHomotopy::<Grps7, C, 84>::with_bend(start.params, aligned, bend);
+    let poly = h.param_poly();
+    assert_eq!(poly.len(), 3, "a bent path is quadratic in t");
+    let system = LaneSystem::<Grps7, 8, { Grps7::NC }>::from_parameter_path::<84>(&poly)
+        .expect("GRPS7 has a parameter row kernel");
+    let opts = all_roots_tracker();
+    let idx: Vec<usize> = (0..40).collect();
+    let batch = track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &idx, &opts)
+        .expect("Heun + adaptive is supported");
+    let (mut both, mut same) = (0, 0);
+    for (&i, b) in idx.iter().zip(&batch) {
+        if let (Ok(b), Ok(a)) = (b, track(&h, &start.solutions[i], &opts)) {
+            both += 1;
+            assert!(b.residual < 1e-8, "path {i}: residual {:e}", b.residual);
+            same += usize::from(relative_distance(&a.x, &b.x) < 1e-8);
+        }
+    }
+    println!("bent path: {both} of 40 paths tracked by both, {same} with the same end point");
+    assert!(both >= 38 && same + 1 >= both, "{same} of {both} agree");
+}

@@ -898,13 +898,13 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
     // The part that depends on `x` alone (GRPS: `rotation(q)`) is the same for every row: it is
     // computed once per operation (`lanes_params_shared`) and read by the row kernel.
     let outputs: Vec<NodeId> = f.iter().chain(&j).chain(&d).map(|(_, id)| *id).collect();
-    let (row_dag, shared) = hoist_x_only(&dag, &outputs);
-    let remap = |entries: &[(TokenStream, NodeId)], map: &[Option<NodeId>]| -> Vec<(TokenStream, NodeId)> {
+    let (row_dag, map, shared) = hoist_x_only(&dag, &outputs);
+    let remap = |entries: &[(TokenStream, NodeId)]| -> Vec<(TokenStream, NodeId)> {
         entries.iter().map(|(t, id)| (t.clone(), map[id.0 as usize].unwrap_or(*id))).collect()
     };
-    let (fr, jr, dr) = (remap(&f, &row_dag.1), remap(&j, &row_dag.1), remap(&d, &row_dag.1));
+    let (fr, jr, dr) = (remap(&f), remap(&j), remap(&d));
     let body = rename_array(
-        render_lanes(&row_dag.0, &vars, &[(quote!(f), &fr), (quote!(j), &jr), (quote!(d), &dr)]),
+        render_lanes(&row_dag, &vars, &[(quote!(f), &fr), (quote!(j), &jr), (quote!(d), &dr)]),
         "c",
         "shared",
     );
@@ -914,7 +914,7 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
     let ns = shared.len();
     // Per row: the kernel, its share of the shared part, and one operation per input for `p(t)`.
     let row_ids: Vec<NodeId> = fr.iter().chain(&jr).chain(&dr).map(|(_, id)| *id).collect();
-    let ops = row_dag.0.op_count(&row_ids) + dag.op_count(&shared).div_ceil(shape.rows.max(1)) + k;
+    let ops = row_dag.op_count(&row_ids) + dag.op_count(&shared).div_ceil(shape.rows.max(1)) + k;
     let (nx, k_t, epr_t, ej, ns_t) = (n(shape.nx), n(k), n(epr), n(epr * shape.nx), n(ns));
     let kernel = quote! {
         #[doc = " The part of the parameter row kernel that depends on the unknowns only (the same for every row), one path per lane."]
@@ -941,12 +941,12 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
     ParamLanes { kernel, ops, nx: shape.nx, k, epr, ej: epr * shape.nx, row_len, shared: ns }
 }
 
-/// Splits the DAG of `outputs` at the nodes that depend on the unknowns alone: returns a copy
-/// (the row DAG, with `map[i]` the copy of node `i`) in which each such node that a node
-/// depending on the parameters (or an output) reads becomes a leaf `Node::C(slot)`, and the
-/// original nodes of those slots, in slot order. Interior nodes only: leaves and constants are
-/// as cheap to load as a slot.
-fn hoist_x_only(dag: &Dag, outputs: &[NodeId]) -> ((Dag, Vec<Option<NodeId>>), Vec<NodeId>) {
+/// Splits the DAG of `outputs` at the nodes that depend on the unknowns alone. Returns a copy
+/// (the row DAG) in which each such node that a node depending on the parameters (or an
+/// output) reads becomes a leaf `Node::C(slot)`; `map[i]`, the copy of node `i`; and the
+/// original nodes of the slots, in slot order. Interior nodes only: leaves and constants are as
+/// cheap to load as a slot.
+fn hoist_x_only(dag: &Dag, outputs: &[NodeId]) -> (Dag, Vec<Option<NodeId>>, Vec<NodeId>) {
     let live = dag.reachable(outputs);
     let len = dag.nodes.len();
     let mut x_only = vec![false; len];
@@ -1001,7 +1001,7 @@ fn hoist_x_only(dag: &Dag, outputs: &[NodeId]) -> ((Dag, Vec<Option<NodeId>>), V
             (None, leaf) => row.intern(leaf.clone()),
         });
     }
-    ((row, map), shared)
+    (row, map, shared)
 }
 
 /// The parameter row kernel of [`param_lanes`] and what its trait items need.

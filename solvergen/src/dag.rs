@@ -343,30 +343,25 @@ impl Dag {
 
     /// `a * b`, simplified (a constant factor absorbs a negation).
     pub fn times(&mut self, a: NodeId, b: NodeId) -> NodeId {
-        match (self.negated_operand(a), self.negated_operand(b)) {
-            (Some(x), Some(y)) => self.times(x, y),
-            (Some(x), None) | (None, Some(x)) => {
-                let other = if self.negated_operand(a).is_some() { b } else { a };
-                if let Some(k) = self.const_value(other) {
-                    let k = self.constant(-k);
-                    return self.mul(k, x);
-                }
-                let m = self.times(other, x);
-                self.neg(m)
-            }
-            (None, None) => self.mul(a, b),
+        // `-(x * y)` with one factor negated: the negated one's operand and the other.
+        let (x, y) = match (self.negated_operand(a), self.negated_operand(b)) {
+            (Some(x), Some(y)) => return self.times(x, y),
+            (None, None) => return self.mul(a, b),
+            (Some(x), None) => (x, b),
+            (None, Some(y)) => (y, a),
+        };
+        if let Some(k) = self.const_value(y) {
+            let k = self.constant(-k);
+            return self.mul(k, x);
         }
+        let m = self.times(y, x);
+        self.neg(m)
     }
 
-    /// Which of the nodes `0 ..= root` the value of `root` depends on and that depend on a
-    /// leaf for which `leaf` holds.
-    fn depends(&self, root: NodeId, leaf: impl Fn(&Node) -> bool) -> Vec<bool> {
-        let live = self.reachable(&[root]);
-        let mut dep = vec![false; root.0 as usize + 1];
-        for i in 0..=root.0 as usize {
-            if !live[i] {
-                continue;
-            }
+    /// For every node, whether its value depends on a leaf for which `leaf` holds.
+    pub fn depends_on(&self, leaf: impl Fn(&Node) -> bool) -> Vec<bool> {
+        let mut dep = vec![false; self.nodes.len()];
+        for i in 0..self.nodes.len() {
             dep[i] = match self.nodes[i] {
                 Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => dep[a.0 as usize] || dep[b.0 as usize],
                 Node::Neg(a) => dep[a.0 as usize],
@@ -407,7 +402,7 @@ impl Dag {
     /// Reverse mode: the gradient of `root` with respect to the leaves `wrt` (one sweep for
     /// all of them, the cost of a few evaluations of `root` however many leaves).
     pub fn gradient(&mut self, root: NodeId, wrt: &[NodeId]) -> Vec<NodeId> {
-        let dep = self.depends(root, |n| wrt.iter().any(|w| self.nodes[w.0 as usize] == *n));
+        let dep = self.depends_on(|n| wrt.iter().any(|w| self.nodes[w.0 as usize] == *n));
         let mut adj: Vec<Option<NodeId>> = vec![None; root.0 as usize + 1];
         if dep[root.0 as usize] {
             adj[root.0 as usize] = Some(self.constant(1.0));
@@ -468,10 +463,21 @@ pub struct DagAlgebra<'d> {
     pub nx: usize,
 }
 
+impl DagAlgebra<'_> {
+    /// The leaf of variable `v`.
+    fn leaf_node(&self, v: Var) -> Node {
+        if (v as usize) < self.nx {
+            Node::X(v)
+        } else {
+            Node::P(v - self.nx as Var)
+        }
+    }
+}
+
 impl crate::lower::Algebra for DagAlgebra<'_> {
     type E = NodeId;
     fn var(&mut self, v: Var) -> NodeId {
-        let node = if (v as usize) < self.nx { Node::X(v) } else { Node::P(v - self.nx as Var) };
+        let node = self.leaf_node(v);
         self.dag.intern(node)
     }
     fn constant(&mut self, c: f64) -> NodeId {
@@ -513,7 +519,7 @@ impl crate::lower::Algebra for DagAlgebra<'_> {
         acc
     }
     fn diff(&mut self, a: &NodeId, v: Var) -> NodeId {
-        let target = if (v as usize) < self.nx { Node::X(v) } else { Node::P(v - self.nx as Var) };
+        let target = self.leaf_node(v);
         self.dag.derivative(*a, |dag, leaf| (*leaf == target).then(|| dag.constant(1.0)))
     }
 }

@@ -949,15 +949,8 @@ fn param_lanes(decl: &Declaration, one: &Instance, shape: RowShape, row_len: usi
 fn hoist_x_only(dag: &Dag, outputs: &[NodeId]) -> (Dag, Vec<Option<NodeId>>, Vec<NodeId>) {
     let live = dag.reachable(outputs);
     let len = dag.nodes.len();
-    let mut x_only = vec![false; len];
-    for (i, node) in dag.nodes.iter().enumerate() {
-        x_only[i] = match *node {
-            Node::X(_) | Node::Const(_) => true,
-            Node::P(_) | Node::Dp(_) | Node::C(_) => false,
-            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => x_only[a.0 as usize] && x_only[b.0 as usize],
-            Node::Neg(a) => x_only[a.0 as usize],
-        };
-    }
+    let x_only: Vec<bool> =
+        dag.depends_on(|n| matches!(n, Node::P(_) | Node::Dp(_) | Node::C(_))).into_iter().map(|d| !d).collect();
     let interior = |i: usize| !matches!(dag.nodes[i], Node::X(_) | Node::Const(_));
     // Slots: x-only interior nodes read by a parameter-dependent node, or outputs.
     let mut slot_of = vec![None; len];

@@ -7,7 +7,7 @@
 //! off so that the problem's own implementation is the only one.
 
 use crate::{ParamDerivative, Scalar};
-use nalgebra::{Cholesky, SMatrix, SVector};
+use nalgebra::{SMatrix, SVector};
 use std::marker::PhantomData;
 use thiserror::Error;
 
@@ -40,11 +40,15 @@ pub trait OnlineSimulator<const NX: usize, const NF: usize, const NP: usize> {
 }
 
 /// The generic simulator: minimum-norm parameter correction by Gauss-Newton on `p`,
-/// `p <- p - Jp^T (Jp Jp^T)^-1 F(x0; p)` with `Jp = dF/dp (x0; p)`.
+/// `p <- p - Jp^+ F(x0; p)` with `Jp = dF/dp (x0; p)` and `Jp^+` its pseudo-inverse.
 ///
-/// Equations whose `dF/dp` row vanishes (they do not involve parameters) cannot be corrected;
-/// they are left out of the step and must already hold at `x0`, otherwise the result is
-/// [`SimulatorError::NotConsistent`].
+/// The step is computed by a rank-revealing QR factorization of `Jp^T` with column pivoting
+/// ([`min_norm_step`]), not by the normal equations: equations that are dependent at `x0`, such
+/// as the three components of a cross product `f x d` (of rank two, since `f . (f x d) = 0`), make
+/// `Jp Jp^T` singular or, as `F -> 0`, ill-conditioned, and a Cholesky factorization of it fails.
+/// Equations whose `dF/dp` row vanishes (they do not involve parameters) or depends on the
+/// others cannot be corrected independently; they are left out of the step and must hold at the
+/// end, otherwise the result is [`SimulatorError::NotConsistent`].
 #[derive(Debug, Clone, Copy)]
 pub struct MinNormSimulator<P> {
     /// Gauss-Newton iterations at most (the correction is exact in one step when `F` is affine in
@@ -52,17 +56,20 @@ pub struct MinNormSimulator<P> {
     pub max_iterations: usize,
     /// Success when `max |F(x0; p0)| <= tolerance * (1 + max |p|)`.
     pub tolerance: f64,
+    /// Pivots of the QR factorization below `rank_tolerance` times the largest count as zero:
+    /// their equations depend on the others. Default `1e-10`.
+    pub rank_tolerance: f64,
     problem: PhantomData<fn() -> P>,
 }
 
 impl<P> Default for MinNormSimulator<P> {
     fn default() -> Self {
-        Self { max_iterations: 8, tolerance: 1e-12, problem: PhantomData }
+        Self { max_iterations: 8, tolerance: 1e-12, rank_tolerance: 1e-10, problem: PhantomData }
     }
 }
 
 impl<P> MinNormSimulator<P> {
-    /// Default settings (8 iterations, tolerance 1e-12).
+    /// Default settings (8 iterations, tolerance 1e-12, rank tolerance 1e-10).
     pub fn new() -> Self {
         Self::default()
     }
@@ -89,23 +96,8 @@ impl<P> MinNormSimulator<P> {
                 return Ok(p0);
             }
             P::param_jacobian(x0, &p0, &mut jp);
-            let mut gram: SMatrix<f64, NF, NF> = jp * jp.transpose();
-            let mut rhs = f;
-            let scale = gram.diagonal().amax().max(1e-300);
-            for k in 0..NF {
-                // An equation free of parameters cannot be corrected: drop it from the step.
-                if gram[(k, k)] <= 1e-24 * scale {
-                    for c in 0..NF {
-                        gram[(k, c)] = 0.0;
-                        gram[(c, k)] = 0.0;
-                    }
-                    gram[(k, k)] = 1.0;
-                    rhs[k] = 0.0;
-                }
-            }
-            let chol = Cholesky::new(gram).ok_or(SimulatorError::Singular)?;
-            let lambda = chol.solve(&rhs);
-            p0 -= jp.transpose() * lambda;
+            let step = min_norm_step(&jp, &f, self.rank_tolerance).ok_or(SimulatorError::Singular)?;
+            p0 -= step;
             if !p0.iter().all(|v| v.is_finite_value()) {
                 return Err(SimulatorError::NonFinite);
             }
@@ -120,6 +112,76 @@ impl<P> MinNormSimulator<P> {
     }
 }
 
+/// The minimum-norm solution `d` of `J d = f` over a maximal set of independent equations:
+/// Householder QR of `J^T` (columns = equations) with column pivoting, stopped at the first pivot
+/// below `rank_tolerance` times the largest column norm; the remaining equations are left out.
+/// For a consistent system this is `J^+ f`. `None` when `J` is zero or not finite (no equation
+/// can be corrected). No allocation.
+pub fn min_norm_step<const NF: usize, const NP: usize>(
+    j: &SMatrix<f64, NF, NP>,
+    f: &SVector<f64, NF>,
+    rank_tolerance: f64,
+) -> Option<SVector<f64, NP>> {
+    let mut a: SMatrix<f64, NP, NF> = j.transpose();
+    let mut rhs = *f;
+    let mut norms = SVector::<f64, NF>::from_fn(|c, _| a.column(c).norm_squared());
+    let largest = norms.amax().sqrt();
+    if !(largest > 0.0 && largest.is_finite()) {
+        return None;
+    }
+    let mut betas = SVector::<f64, NF>::zeros();
+    let mut rank = 0;
+    for k in 0..NF.min(NP) {
+        // Pivot: the remaining column of largest norm below row k (norms kept exact by
+        // recomputation; NF is small).
+        let (pivot, _) = (k..NF).map(|c| (c, norms[c])).fold((k, -1.0), |best, c| if c.1 > best.1 { c } else { best });
+        a.swap_columns(k, pivot);
+        norms.swap_rows(k, pivot);
+        rhs.swap_rows(k, pivot);
+        let alpha = a.view((k, k), (NP - k, 1)).norm();
+        if alpha <= rank_tolerance * largest {
+            break;
+        }
+        // Householder reflector I - beta u u^T mapping a[k.., k] onto -sign(a_kk) alpha e_1;
+        // u is stored in a[k.., k] with u_0 = a_kk + sign alpha.
+        let sign = if a[(k, k)] >= 0.0 { 1.0 } else { -1.0 };
+        let u0 = a[(k, k)] + sign * alpha;
+        a[(k, k)] = u0;
+        let beta = 1.0 / (alpha * u0.abs());
+        betas[k] = beta;
+        for c in k + 1..NF {
+            let dot: f64 = (k..NP).map(|r| a[(r, k)] * a[(r, c)]).sum();
+            let s = beta * dot;
+            for r in k..NP {
+                a[(r, c)] -= s * a[(r, k)];
+            }
+            norms[c] = (k + 1..NP).map(|r| a[(r, c)] * a[(r, c)]).sum();
+        }
+        rank = k + 1;
+        // R_kk = -sign alpha, kept beside the reflector.
+        norms[k] = -sign * alpha;
+    }
+    // J^T P = Q R, so the kept equations read R_11^T y = (P^T f)_1 with y = (Q^T d)_1; the
+    // minimum-norm d is Q [y; 0].
+    let mut d = SVector::<f64, NP>::zeros();
+    for k in 0..rank {
+        let mut s = rhs[k];
+        for i in 0..k {
+            s -= a[(i, k)] * d[i];
+        }
+        d[k] = s / norms[k];
+    }
+    for k in (0..rank).rev() {
+        // Apply reflector k: d <- d - beta u (u^T d), u = a[k.., k] (its diagonal entry u0).
+        let dot: f64 = (k..NP).map(|r| a[(r, k)] * d[r]).sum();
+        let s = betas[k] * dot;
+        for r in k..NP {
+            d[r] -= s * a[(r, k)];
+        }
+    }
+    d.iter().all(|v| v.is_finite()).then_some(d)
+}
+
 impl<P, const NX: usize, const NF: usize, const NP: usize> OnlineSimulator<NX, NF, NP>
     for MinNormSimulator<P>
 where
@@ -131,5 +193,36 @@ where
         p: &SVector<f64, NP>,
     ) -> Result<SVector<f64, NP>, SimulatorError> {
         self.run::<NX, NF, NP>(x0, p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::min_norm_step;
+    use nalgebra::{SMatrix, SVector};
+
+    #[test]
+    fn full_rank_step_is_the_pseudo_inverse() {
+        let j = SMatrix::<f64, 3, 5>::from_fn(|r, c| ((r * 5 + c) as f64 * 0.7).sin() + if r == c { 2.0 } else { 0.0 });
+        let f = SVector::<f64, 3>::new(0.3, -1.2, 0.5);
+        let d = min_norm_step(&j, &f, 1e-12).unwrap();
+        let expected = j.transpose() * (j * j.transpose()).try_inverse().unwrap() * f;
+        assert!((d - expected).amax() < 1e-12, "{d} vs {expected}");
+    }
+
+    #[test]
+    fn dependent_equations_are_dropped_and_still_hold() {
+        // Row 2 = row 0 + 2 row 1, with a consistent right-hand side; row 3 has no parameters.
+        let mut j = SMatrix::<f64, 4, 6>::from_fn(|r, c| ((r * 6 + c) as f64 * 1.3).cos());
+        let (r0, r1) = (j.row(0).into_owned(), j.row(1).into_owned());
+        j.set_row(2, &(r0 + r1 * 2.0));
+        j.set_row(3, &nalgebra::RowSVector::<f64, 6>::zeros());
+        let f = SVector::<f64, 4>::new(0.5, -0.25, 0.0, 0.0);
+        let d = min_norm_step(&j, &f, 1e-10).unwrap();
+        assert!((j * d - f).amax() < 1e-12, "residual {}", (j * d - f).amax());
+        // Minimum norm: for a consistent system, the pseudo-inverse's solution.
+        let pinv = j.pseudo_inverse(1e-10).unwrap();
+        assert!((d - pinv * f).amax() < 1e-12, "{d} vs {}", pinv * f);
+        assert!(min_norm_step(&SMatrix::<f64, 2, 3>::zeros(), &SVector::<f64, 2>::new(1.0, 0.0), 1e-10).is_none());
     }
 }

@@ -3,6 +3,7 @@
 //! and geometric online simulator; plus the pose error metrics of the paper.
 
 pub mod grps;
+pub mod input;
 pub mod lm;
 pub mod metrics;
 pub mod start_systems;

@@ -90,3 +90,65 @@ fn perturbed_starts_are_tracked_to_the_truth() {
         assert!(err < 1e-6, "scene {i}, start {angle} deg off: error {err} deg");
     }
 }
+
+/// Every distribution the solver may meet: simhc's own sampler, the peers' world-box scenes,
+/// and both with random rigid changes of the world and viewer frames. The shipped solver must
+/// succeed and must never return a wrong pose unflagged.
+#[test]
+fn shipped_solver_holds_on_every_distribution() {
+    use rand::SeedableRng;
+    use simhc_problems::upnp::scene::PointBox;
+    let solver = UpnpSolver::new().expect("shipped weights load");
+    let config = UpnpSceneConfig::default(); // 2 px
+    for (layout, frames) in [(PointBox::Viewer, false), (PointBox::World, false), (PointBox::Viewer, true), (PointBox::World, true)] {
+        let seed = 77;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let (mut ok, mut flagged, n) = (0, 0, 60);
+        for i in 0..n {
+            let scene = config.sample_with(layout, frames, &mut rng).expect("valid config");
+            match solver.solve(&scene.correspondences) {
+                Ok(pose) => {
+                    let err = rotation_error_deg(&pose.rotation, &scene.rotation);
+                    assert!(err < 2.0, "{layout:?} frames {frames} seed {seed} trial {i}: unflagged pose {err} deg off");
+                    ok += 1;
+                }
+                Err(SolveError::NotValidated(_)) => flagged += 1,
+                Err(e) => panic!("{layout:?} frames {frames} trial {i}: {e}"),
+            }
+        }
+        println!("{layout:?} box, random frames {frames}, seed {seed}: {ok}/{n} validated, {flagged} flagged");
+        assert!(ok >= n - 1, "{layout:?} frames {frames}: only {ok}/{n}");
+    }
+}
+
+/// One path from a random start often ends on the wrong stationary point: those come back
+/// flagged, and whatever comes back unflagged is right.
+#[test]
+fn wrong_end_points_are_flagged() {
+    use rand::SeedableRng;
+    let solver = UpnpSolver::new().expect("shipped weights load");
+    let config = UpnpSceneConfig::default();
+    let seed = 5;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let (mut right, mut flagged) = (0, 0);
+    for i in 0..80u64 {
+        let scene = config.sample_seeded(2000 + i).expect("valid config");
+        let q0 = simhc_problems::metrics::random_unit_quaternion(&mut rng);
+        match solver.solve_from(&scene.correspondences, q0) {
+            Ok(r) => {
+                let err = rotation_error_deg(&r.pose.rotation, &scene.rotation);
+                assert!(err < 2.0, "seed {seed} trial {i}: unflagged end point {err} deg off");
+                assert!(r.validation.passes(solver.options.max_angle, 0));
+                right += 1;
+            }
+            Err(SolveError::NotValidated(r)) => {
+                assert!(!r.validation.passes(solver.options.max_angle, solver.options.max_behind));
+                flagged += 1;
+            }
+            Err(_) => {}
+        }
+    }
+    println!("seed {seed}: {right} right, {flagged} flagged of 80 random starts");
+    // Both branches must be exercised for the test to mean anything.
+    assert!(right >= 10 && flagged >= 10, "right {right}, flagged {flagged}");
+}

@@ -175,6 +175,21 @@ impl GrpsSceneConfig {
     }
 }
 
+impl crate::input::VectorFields for GrpsCorrespondence {
+    const FIELDS: &'static [&'static str] = &["f", "v", "fp", "vp"];
+    fn from_fields(fields: &[[f64; 3]]) -> Self {
+        Self { f: fields[0].into(), v: fields[1].into(), fp: fields[2].into(), vp: fields[3].into() }
+    }
+}
+
+impl crate::input::TrialFields for GrpsScene {
+    type Correspondence = GrpsCorrespondence;
+    const HAS_SCALE: bool = true;
+    fn from_parts(correspondences: Vec<GrpsCorrespondence>, rotation: [[f64; 3]; 3], translation: [f64; 3], scale: f64) -> Self {
+        Self { correspondences, rotation: from_rows3(&rotation), translation: translation.into(), scale }
+    }
+}
+
 #[derive(Serialize, Deserialize)]
 struct CorrespondenceRecord {
     f: [f64; 3],

@@ -1,5 +1,6 @@
 //! Generalized absolute pose via UPnP: declaration, scene sampler, cost matrix, simulator.
 pub mod geometry;
+pub mod linear;
 pub mod refine;
 pub mod scene;
 pub mod solver;

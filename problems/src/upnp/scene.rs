@@ -75,6 +75,63 @@ pub struct UpnpScene {
     pub translation: Vector3<f64>,
 }
 
+/// Which frame the sampler's point box `[-1, 1]² x [4, 8]` is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PointBox {
+    /// The viewer frame: every point is in front of the rig (simhc's training distribution).
+    #[default]
+    Viewer,
+    /// The world frame: the paper's text read literally, the data of the peers' generators
+    /// (points anywhere around the rig once the pose is applied).
+    World,
+}
+
+impl UpnpScene {
+    /// The same scene seen in other frames: world points `p' = W p + t_w`, viewer data
+    /// `f' = V f`, `v' = V v + t_v`, and the ground truth changed to match,
+    /// `R' = V R W^T`, `t' = V (t - R W^T t_w) + t_v`.
+    pub fn transformed(
+        &self,
+        world: (&Matrix3<f64>, &Vector3<f64>),
+        viewer: (&Matrix3<f64>, &Vector3<f64>),
+    ) -> UpnpScene {
+        let ((w, tw), (v, tv)) = (world, viewer);
+        let rw = self.rotation * w.transpose();
+        UpnpScene {
+            correspondences: self
+                .correspondences
+                .iter()
+                .map(|c| UpnpCorrespondence { p: w * c.p + tw, f: v * c.f, v: v * c.v + tv })
+                .collect(),
+            rotation: v * rw,
+            translation: v * (self.translation - rw * tw) + tv,
+        }
+    }
+
+    /// [`UpnpScene::transformed`] with uniformly random rotations `W`, `V` and translations
+    /// `t_w`, `t_v` in `[-10, 10]³`, drawn in that order.
+    pub fn random_frames<R: Rng + ?Sized>(&self, rng: &mut R) -> UpnpScene {
+        let w = random_rotation(rng);
+        let tw = sample_in_box(rng, [-10.0; 3], [10.0; 3]);
+        let v = random_rotation(rng);
+        let tv = sample_in_box(rng, [-10.0; 3], [10.0; 3]);
+        self.transformed((&w, &tw), (&v, &tv))
+    }
+}
+
+/// A uniformly distributed rotation (a normalized Gaussian quaternion; four normal draws by
+/// Box-Muller, eight uniform draws).
+pub fn random_rotation<R: Rng + ?Sized>(rng: &mut R) -> Matrix3<f64> {
+    let mut gauss = || {
+        let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
+        let u2: f64 = rng.random();
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    };
+    let q = nalgebra::Quaternion::new(gauss(), gauss(), gauss(), gauss());
+    nalgebra::UnitQuaternion::from_quaternion(q).to_rotation_matrix().into_inner()
+}
+
 /// Settings of the UPnP scene sampler; the default is the paper's experiment.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct UpnpSceneConfig {
@@ -136,6 +193,18 @@ impl UpnpSceneConfig {
 
     /// Samples a scene with the paper's generative model (module docs) from `rng`.
     pub fn sample<R: Rng + ?Sized>(&self, rng: &mut R) -> Result<UpnpScene, SceneConfigError> {
+        self.sample_with(PointBox::Viewer, false, rng)
+    }
+
+    /// Samples a scene with the points drawn in the box of `layout`; with `random_frames`, the
+    /// world and viewer frames are then changed by random rigid motions
+    /// ([`UpnpScene::random_frames`], drawn last: the scene of a seed is otherwise the same).
+    pub fn sample_with<R: Rng + ?Sized>(
+        &self,
+        layout: PointBox,
+        random_frames: bool,
+        rng: &mut R,
+    ) -> Result<UpnpScene, SceneConfigError> {
         self.validate()?;
         let half_pi = std::f64::consts::FRAC_PI_2;
         let rotation = sample_euler_rotation(rng, half_pi);
@@ -145,24 +214,26 @@ impl UpnpSceneConfig {
             .collect();
         let mut correspondences: Vec<UpnpCorrespondence> = (0..self.points)
             .map(|i| {
-                let x = sample_in_box(rng, [-1.0, -1.0, 4.0], [1.0, 1.0, 8.0]);
+                let drawn = sample_in_box(rng, [-1.0, -1.0, 4.0], [1.0, 1.0, 8.0]);
+                let (p, x) = match layout {
+                    // |x - v| >= 3 since x.z >= 4 and v.z <= 1.
+                    PointBox::Viewer => (rotation.transpose() * (drawn - translation), drawn),
+                    // |x - v| > 0 almost surely; the depth along f = (x - v)/|x - v| is positive.
+                    PointBox::World => (drawn, rotation * drawn + translation),
+                };
                 let v = centres[i % self.cameras];
-                // |x - v| >= 3 since x.z >= 4 and v.z <= 1.
-                UpnpCorrespondence {
-                    p: rotation.transpose() * (x - translation),
-                    f: (x - v).normalize(),
-                    v,
-                }
+                UpnpCorrespondence { p, f: (x - v).normalize(), v }
             })
             .collect();
         for c in &mut correspondences {
             c.f = add_bearing_noise(&c.f, self.noise_px, self.focal_px, rng);
         }
-        Ok(UpnpScene {
+        let scene = UpnpScene {
             correspondences,
             rotation,
             translation,
-        })
+        };
+        Ok(if random_frames { scene.random_frames(rng) } else { scene })
     }
 
     /// [`Self::sample`] with `ChaCha8Rng::seed_from_u64(seed)`.
@@ -241,6 +312,21 @@ pub(crate) fn from_rows3(r: &[[f64; 3]; 3]) -> Matrix3<f64> {
     Matrix3::from_fn(|i, j| r[i][j])
 }
 
+impl crate::input::VectorFields for UpnpCorrespondence {
+    const FIELDS: &'static [&'static str] = &["p", "f", "v"];
+    fn from_fields(fields: &[[f64; 3]]) -> Self {
+        Self { p: fields[0].into(), f: fields[1].into(), v: fields[2].into() }
+    }
+}
+
+impl crate::input::TrialFields for UpnpScene {
+    type Correspondence = UpnpCorrespondence;
+    const HAS_SCALE: bool = false;
+    fn from_parts(correspondences: Vec<UpnpCorrespondence>, rotation: [[f64; 3]; 3], translation: [f64; 3], _scale: f64) -> Self {
+        Self { correspondences, rotation: from_rows3(&rotation), translation: translation.into() }
+    }
+}
+
 #[derive(Serialize, Deserialize)]
 struct CorrespondenceRecord {
     p: [f64; 3],
@@ -307,6 +393,32 @@ mod tests {
         let rec = SceneRecord::from(scene.clone());
         assert_eq!(rec.rotation[0][1], scene.rotation[(0, 1)]);
         assert_eq!(rec.rotation[1][0], scene.rotation[(1, 0)]);
+    }
+
+    #[test]
+    fn every_variant_satisfies_its_ground_truth() {
+        let config = UpnpSceneConfig { noise_px: 0.0, ..UpnpSceneConfig::default() };
+        for layout in [PointBox::Viewer, PointBox::World] {
+            for frames in [false, true] {
+                let mut rng = ChaCha8Rng::seed_from_u64(9);
+                for _ in 0..20 {
+                    let s = config.sample_with(layout, frames, &mut rng).unwrap();
+                    assert!((s.rotation.transpose() * s.rotation - Matrix3::identity()).amax() < 1e-12);
+                    assert!((s.rotation.determinant() - 1.0).abs() < 1e-12);
+                    for c in &s.correspondences {
+                        let d = s.rotation * c.p + s.translation - c.v;
+                        assert!(c.f.cross(&d).norm() < 1e-9 * d.norm(), "{layout:?} {frames}");
+                        assert!(c.f.dot(&d) > 0.0);
+                    }
+                }
+            }
+        }
+        // The frames are drawn last: the scene itself is the same.
+        let a = config.sample_with(PointBox::World, false, &mut ChaCha8Rng::seed_from_u64(4)).unwrap();
+        let b = config.sample_with(PointBox::World, true, &mut ChaCha8Rng::seed_from_u64(4)).unwrap();
+        let ratio = |s: &UpnpScene| (s.correspondences[0].p - s.correspondences[1].p).norm();
+        assert!((ratio(&a) - ratio(&b)).abs() < 1e-12);
+        assert_ne!(a.correspondences[0].p, b.correspondences[0].p);
     }
 
     #[test]

@@ -1,14 +1,33 @@
-//! The UPnP Simulator HC solver: regressor -> geometric online simulator -> single-path
-//! homotopy continuation on the compiled UPnP system.
+//! The UPnP Simulator HC solver: start -> geometric online simulator -> single-path homotopy
+//! continuation on the compiled UPnP system -> validation -> next start -> all-roots fallback.
 //!
 //! Pose convention: `alpha_i f_i + v_i = R p_i + t` (world point `p_i`, bearing `f_i` and ray
 //! origin `v_i` in the viewer frame); [`UpnpPose`] holds that `R` and `t`.
+//!
+//! # Why validation
+//!
+//! A homotopy path ends on a stationary point of the UPnP cost, and from a far start that can
+//! be the wrong one. Every end point is therefore checked on all correspondences
+//! ([`UpnpValidation`]: the largest angle between a bearing and the direction to its point under
+//! the pose, and cheirality). The solver returns the first end point that passes; when none
+//! does, not even the global minimum of the all-roots fallback, the best one comes back inside
+//! [`SolveError::NotValidated`], never as a plain `Ok`.
+//!
+//! # Starts
+//!
+//! [`StartKind::Linear`] is the closed-form linear relaxation ([`super::linear`]): exactly
+//! equivariant under rigid changes of the world and viewer frames, so it does not depend on the
+//! distribution the regressor was trained on. [`StartKind::Regressor`] is the learned start.
+//! [`UpnpSolverOptions::starts`] sets their order.
 
-use super::geometry::{reproject_in_place, upnp_system, UpnpError, UpnpSystem};
+use super::geometry::{reproject_in_place, upnp_system, validate, UpnpError, UpnpSystem};
+use super::linear::{linear_rotation, LinearStartError};
 use super::scene::UpnpCorrespondence;
 use super::{params_of, Upnp};
-use crate::metrics::rotation_from_quat;
+use crate::metrics::{quat_from_rotation, rotation_from_quat};
+use crate::start_systems::solve_upnp;
 use nalgebra::{Matrix3, SVector, Vector3};
+use simhc::all_roots::AllRootsOptions;
 use simhc::homotopy::CoefficientLine;
 use simhc::regressor::{upnp_rows, FoldedNetwork, RegressorError, UPNP_ROW_WIDTH};
 use simhc::tracker::{track, TrackError, TrackStats, TrackerOptions};
@@ -29,6 +48,116 @@ pub struct UpnpPose {
     pub quaternion: [f64; 4],
 }
 
+impl UpnpPose {
+    /// The pose of a (not necessarily unit) quaternion with its optimal translation.
+    fn of_quaternion(target: &UpnpSystem, q: [f64; 4]) -> Option<Self> {
+        let q = normalized(q)?;
+        Some(Self { rotation: rotation_from_quat(q), translation: target.translation(q), quaternion: q })
+    }
+}
+
+/// Where the start of an attempt came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StartKind {
+    /// The linear relaxation ([`super::linear::linear_rotation`]).
+    Linear,
+    /// The learned regressor.
+    Regressor,
+    /// A start given by the caller ([`UpnpSolver::solve_from`]).
+    Given,
+}
+
+/// What produced an end point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// One homotopy path from the start (the paper's Simulator HC).
+    SimulatorHc,
+    /// The global minimum among all 40 critical points ([`crate::start_systems::solve_upnp`]).
+    AllRoots,
+}
+
+/// How well a pose explains the correspondences.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpnpValidation {
+    /// Largest angle (radians) between a bearing `f_i` and `R p_i + t - v_i`.
+    pub max_angle: f64,
+    /// Correspondences whose point lies behind its ray origin (`f_i . (R p_i + t - v_i) <= 0`).
+    pub behind: usize,
+}
+
+impl UpnpValidation {
+    /// Validates `pose` on `corrs` (a NaN residual counts as an infinite angle).
+    pub fn of(pose: &UpnpPose, corrs: &[UpnpCorrespondence]) -> Self {
+        let mut max_angle = 0.0f64;
+        let mut behind = 0;
+        for c in corrs {
+            let d = pose.rotation * c.p + pose.translation - c.v;
+            let cos = c.f.dot(&d);
+            let angle = c.f.cross(&d).norm().atan2(cos);
+            max_angle = if angle.is_nan() { f64::INFINITY } else { max_angle.max(angle) };
+            if cos.is_nan() || cos <= 0.0 {
+                behind += 1;
+            }
+        }
+        Self { max_angle, behind }
+    }
+
+    /// At most `max_behind` points behind their rays and every angle at most `max_angle`.
+    pub fn passes(&self, max_angle: f64, max_behind: usize) -> bool {
+        self.behind <= max_behind && self.max_angle <= max_angle
+    }
+
+    /// Ordering of end points that do not pass: fewer points behind first, then the residual.
+    fn key(&self) -> (usize, f64) {
+        (self.behind, self.max_angle)
+    }
+}
+
+/// Solver settings; the default is the shipped configuration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpnpSolverOptions {
+    /// Starts tried in order, one homotopy path each, until an end point validates.
+    /// Default: the linear relaxation, then the regressor.
+    pub starts: [Option<StartKind>; 2],
+    /// Tracker settings of every path. Default: [`TrackerOptions::single_path`].
+    pub tracker: TrackerOptions,
+    /// Largest angle (radians) between a bearing and its point under an accepted pose. Default
+    /// `0.02` (16 px at 800 px focal length): four to eight times the largest residual of the
+    /// optimum at the paper's 2 px; [`UpnpSolverOptions::for_noise`] sets it from the noise.
+    pub max_angle: f64,
+    /// Points allowed behind their rays in an accepted pose. Default `0`.
+    pub max_behind: usize,
+    /// When no path validates: all 40 critical points of the cost (about 1 ms), the global
+    /// minimum validated like any end point. Default `true`.
+    pub all_roots_fallback: bool,
+}
+
+impl Default for UpnpSolverOptions {
+    fn default() -> Self {
+        Self {
+            starts: [Some(StartKind::Linear), Some(StartKind::Regressor)],
+            tracker: TrackerOptions::single_path(),
+            max_angle: 0.02,
+            max_behind: 0,
+            all_roots_fallback: true,
+        }
+    }
+}
+
+impl UpnpSolverOptions {
+    /// The paper's Simulator HC: one path from `start`, no fallback; the end point is still
+    /// validated (flagged by [`SolveError::NotValidated`] when it fails).
+    pub fn single_path(start: StartKind) -> Self {
+        Self { starts: [Some(start), None], all_roots_fallback: false, ..Self::default() }
+    }
+
+    /// For bearing noise of `noise_px` pixels at focal length `focal_px`: accepted residuals up to
+    /// `max(8 noise_px / focal_px, 1e-6)` radians.
+    pub fn for_noise(noise_px: f64, focal_px: f64) -> Self {
+        Self { max_angle: (8.0 * noise_px / focal_px).max(1e-6), ..Self::default() }
+    }
+}
+
 /// Why a solve failed.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SolveError {
@@ -38,19 +167,29 @@ pub enum SolveError {
     /// The regressor could not run on the input.
     #[error("regressor: {0}")]
     Regressor(#[from] RegressorError),
+    /// The linear start is not available for this input.
+    #[error("linear start: {0}")]
+    Linear(#[from] LinearStartError),
     /// The homotopy path failed; the code says how.
     #[error("tracking failed: {0}")]
     Tracker(#[from] TrackError),
+    /// Every attempt ended, but no end point passed validation. The best one (fewest points
+    /// behind, then the smallest residual) is inside, flagged: do not use it as a pose.
+    #[error(
+        "no pose validated after {} attempts (best: largest angular residual {:.3e} rad, {} points behind)",
+        .0.attempts, .0.validation.max_angle, .0.validation.behind
+    )]
+    NotValidated(Box<UpnpSolveReport>),
 }
 
-/// Wall time of each stage of one solve.
+/// Wall time of each stage of one solve (all attempts included).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StageTimes {
-    /// Building the input rows and the forward pass.
-    pub regressor: Duration,
-    /// Cost matrices of the target and of the simulated start problem.
+    /// Start providers: the linear relaxation and the regressor's rows and forward pass.
+    pub start: Duration,
+    /// Cost matrices of the target and of the simulated start problems.
     pub simulator: Duration,
-    /// Coefficients and path tracking.
+    /// Path tracking, validation and the all-roots fallback.
     pub tracking: Duration,
 }
 
@@ -59,9 +198,17 @@ pub struct StageTimes {
 pub struct UpnpSolveReport {
     /// The pose.
     pub pose: UpnpPose,
-    /// The start quaternion (regressor output or caller's).
+    /// The start quaternion of the attempt that produced the pose.
     pub start: [f64; 4],
-    /// Path statistics.
+    /// Where that start came from.
+    pub start_kind: StartKind,
+    /// What produced the pose.
+    pub method: Method,
+    /// Attempts made, the fallback included (1 when the first path validated).
+    pub attempts: usize,
+    /// Validation of the pose on all correspondences.
+    pub validation: UpnpValidation,
+    /// Path statistics of the attempt that produced the pose (zero for the fallback).
     pub stats: TrackStats,
     /// Stage timings.
     pub times: StageTimes,
@@ -71,29 +218,39 @@ pub struct UpnpSolveReport {
 #[derive(Debug, Clone)]
 pub struct UpnpSolver {
     network: FoldedNetwork,
-    /// Tracker settings; default: the adaptive single-path preset.
-    pub options: TrackerOptions,
+    /// Settings.
+    pub options: UpnpSolverOptions,
 }
 
 impl UpnpSolver {
-    /// The solver with the shipped regressor weights.
+    /// The solver with the shipped regressor weights and default options.
     pub fn new() -> Result<Self, RegressorError> {
         Ok(Self::with_network(FoldedNetwork::from_bytes(UPNP_WEIGHTS)?))
     }
 
     /// The solver with a given network (input rows of width [`UPNP_ROW_WIDTH`], 4 outputs).
     pub fn with_network(network: FoldedNetwork) -> Self {
-        Self { network, options: TrackerOptions::single_path() }
+        Self { network, options: UpnpSolverOptions::default() }
     }
 
-    /// Solves for the pose (regressor start).
+    /// The same solver with other options.
+    pub fn with_options(mut self, options: UpnpSolverOptions) -> Self {
+        self.options = options;
+        self
+    }
+
+    /// Solves for the pose.
     pub fn solve(&self, corrs: &[UpnpCorrespondence]) -> Result<UpnpPose, SolveError> {
         self.solve_report(corrs).map(|r| r.pose)
     }
 
     /// The regressor's quaternion for the correspondences (unit, `[w, x, y, z]`).
     pub fn predict(&self, corrs: &[UpnpCorrespondence]) -> Result<[f64; 4], SolveError> {
-        super::geometry::validate(corrs)?;
+        validate(corrs)?;
+        self.predict_unchecked(corrs)
+    }
+
+    fn predict_unchecked(&self, corrs: &[UpnpCorrespondence]) -> Result<[f64; 4], SolveError> {
         let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * corrs.len()];
         upnp_rows(corrs.len(), |i| (corrs[i].p.into(), corrs[i].f.into(), corrs[i].v.into()), &mut rows)?;
         let mut q = [0.0f64; 4];
@@ -101,34 +258,132 @@ impl UpnpSolver {
         Ok(q)
     }
 
-    /// Solves with the regressor start and reports stage timings.
-    pub fn solve_report(&self, corrs: &[UpnpCorrespondence]) -> Result<UpnpSolveReport, SolveError> {
-        let t0 = Instant::now();
-        let q0 = self.predict(corrs)?;
-        let regressor = t0.elapsed();
-        let mut report = self.solve_from(corrs, q0)?;
-        report.times.regressor = regressor;
-        Ok(report)
+    /// The start quaternion of the linear relaxation.
+    pub fn linear_start(&self, corrs: &[UpnpCorrespondence]) -> Result<[f64; 4], SolveError> {
+        validate(corrs)?;
+        Ok(quat_from_rotation(&linear_rotation(corrs)?))
     }
 
-    /// Solves from a given start quaternion (e.g. a random one, for the ablation).
-    pub fn solve_from(&self, corrs: &[UpnpCorrespondence], q0: [f64; 4]) -> Result<UpnpSolveReport, SolveError> {
-        let t0 = Instant::now();
-        let target = upnp_system(corrs)?;
-        let q0 = normalized(q0).ok_or(UpnpError::NonFinite { index: usize::MAX })?;
-        let start = simulate(&target, corrs, q0)?;
-        let simulator = t0.elapsed();
+    /// Solves with the starts of the options, validation and the fallback.
+    pub fn solve_report(&self, corrs: &[UpnpCorrespondence]) -> Result<UpnpSolveReport, SolveError> {
+        let starts: Vec<StartKind> = self.options.starts.iter().flatten().copied().collect();
+        self.run(corrs, &starts, None, self.options.all_roots_fallback)
+    }
 
+    /// One path from a given start quaternion (e.g. a random one, for the ablation), validated,
+    /// no fallback.
+    pub fn solve_from(&self, corrs: &[UpnpCorrespondence], q0: [f64; 4]) -> Result<UpnpSolveReport, SolveError> {
+        let q0 = normalized(q0).ok_or(UpnpError::NonFinite { index: usize::MAX })?;
+        self.run(corrs, &[StartKind::Given], Some(q0), false)
+    }
+
+    fn run(
+        &self,
+        corrs: &[UpnpCorrespondence],
+        starts: &[StartKind],
+        given: Option<[f64; 4]>,
+        fallback: bool,
+    ) -> Result<UpnpSolveReport, SolveError> {
+        let o = &self.options;
+        let mut times = StageTimes::default();
+        let ts = Instant::now();
+        let target = upnp_system(corrs)?;
+        times.simulator += ts.elapsed();
+
+        let mut attempts = 0;
+        let mut best: Option<UpnpSolveReport> = None;
+        let mut last_error: Option<SolveError> = None;
+        for &kind in starts {
+            let t0 = Instant::now();
+            let q0 = match kind {
+                StartKind::Linear => linear_rotation(corrs).map(|r| quat_from_rotation(&r)).map_err(SolveError::from),
+                StartKind::Regressor => self.predict_unchecked(corrs).and_then(|q| normalized(q).ok_or(SolveError::Tracker(TrackError::NonFinite { t: 0.0 }))),
+                StartKind::Given => given.ok_or(SolveError::Input(UpnpError::NonFinite { index: usize::MAX })),
+            };
+            times.start += t0.elapsed();
+            attempts += 1;
+            let q0 = match q0 {
+                Ok(q0) => q0,
+                Err(e) => {
+                    last_error = Some(e);
+                    continue;
+                }
+            };
+            match self.track_one(&target, corrs, q0, &mut times) {
+                Ok((pose, stats)) => {
+                    let tv = Instant::now();
+                    let validation = UpnpValidation::of(&pose, corrs);
+                    times.tracking += tv.elapsed();
+                    let report = UpnpSolveReport { pose, start: q0, start_kind: kind, method: Method::SimulatorHc, attempts, validation, stats, times };
+                    if validation.passes(o.max_angle, o.max_behind) {
+                        return Ok(report);
+                    }
+                    if best.as_ref().is_none_or(|b| validation.key() < b.validation.key()) {
+                        best = Some(report);
+                    }
+                }
+                Err(e) => last_error = Some(e),
+            }
+        }
+        if fallback {
+            let t = Instant::now();
+            let pose = global_minimum(&target);
+            times.tracking += t.elapsed();
+            attempts += 1;
+            if let Some(pose) = pose {
+                let validation = UpnpValidation::of(&pose, corrs);
+                let start = best.map_or(pose.quaternion, |b| b.start);
+                let start_kind = best.map_or(StartKind::Linear, |b| b.start_kind);
+                let report = UpnpSolveReport { pose, start, start_kind, method: Method::AllRoots, attempts, validation, stats: TrackStats::default(), times };
+                if validation.passes(o.max_angle, o.max_behind) {
+                    return Ok(report);
+                }
+                if best.as_ref().is_none_or(|b| validation.key() < b.validation.key()) {
+                    best = Some(report);
+                }
+            }
+        }
+        match best {
+            Some(mut b) => {
+                b.attempts = attempts;
+                b.times = times;
+                Err(SolveError::NotValidated(Box::new(b)))
+            }
+            None => Err(last_error.unwrap_or(SolveError::Tracker(TrackError::NonFinite { t: 0.0 }))),
+        }
+    }
+
+    /// One path from `q0`: the geometric simulator, then the straight line to the target.
+    fn track_one(
+        &self,
+        target: &UpnpSystem,
+        corrs: &[UpnpCorrespondence],
+        q0: [f64; 4],
+        times: &mut StageTimes,
+    ) -> Result<(UpnpPose, TrackStats), SolveError> {
+        let t0 = Instant::now();
+        let start = simulate(target, corrs, q0)?;
+        times.simulator += t0.elapsed();
         let t1 = Instant::now();
         let h = CoefficientLine::<Upnp, f64, 66, 35>::new::<4, 5>(&params_of(&start), &params_of(&target.m));
-        let result = track(&h, &SVector::<f64, 4>::from(q0), &self.options)?;
-        let tracking = t1.elapsed();
-
-        let q = normalized([result.x[0], result.x[1], result.x[2], result.x[3]])
+        let result = track(&h, &SVector::<f64, 4>::from(q0), &self.options.tracker);
+        times.tracking += t1.elapsed();
+        let result = result?;
+        let pose = UpnpPose::of_quaternion(target, [result.x[0], result.x[1], result.x[2], result.x[3]])
             .ok_or(TrackError::NonFinite { t: 1.0 })?;
-        let pose = UpnpPose { rotation: rotation_from_quat(q), translation: target.translation(q), quaternion: q };
-        Ok(UpnpSolveReport { pose, start: q0, stats: result.stats, times: StageTimes { regressor: Duration::ZERO, simulator, tracking } })
+        Ok((pose, result.stats))
     }
+}
+
+/// The pose of the smallest cost among all real critical points (`None` when the all-roots
+/// solver finds no real one).
+fn global_minimum(target: &UpnpSystem) -> Option<UpnpPose> {
+    let result = solve_upnp(&params_of(&target.m), &AllRootsOptions::default());
+    result
+        .real
+        .iter()
+        .filter_map(|s| UpnpPose::of_quaternion(target, [s.x[0], s.x[1], s.x[2], s.x[3]]))
+        .min_by(|a, b| target.cost(a.quaternion).total_cmp(&target.cost(b.quaternion)))
 }
 
 /// The paper's geometric simulator: reproject the points under `(R(q0), t*(q0))` and rebuild

@@ -96,6 +96,7 @@ fn outcome(pose: &GrpsPose, scene: &GrpsScene, micros: f64, split: Option<[f64; 
         scale_pct: Some(scale_error_pct(pose.scale, scene.scale)),
         micros,
         split,
+        flagged: false,
     }
 }
 
@@ -138,7 +139,8 @@ impl SolverRow {
                 self.fallbacks += usize::from(r.method == Method::AllRoots);
                 self.attempts.push(r.attempts as f64);
                 let split = [us(r.times.regressor), us(r.times.simulator), us(r.times.tracking)];
-                self.record.outcomes.push(outcome(&r.pose, scene, micros, Some(split)));
+                let o = outcome(&r.pose, scene, micros, Some(split));
+                self.record.outcomes.push(Outcome { flagged, ..o });
             }
             None => self.record.outcomes.push(failed(micros)),
         }
@@ -782,14 +784,7 @@ pub fn text(report: &BenchReport) -> String {
 /// (`{"correspondences": [{"f": [..], "v": [..], "fp": [..], "vp": [..]}, ..]}`, or a bare
 /// array of them).
 pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
-    #[derive(serde::Deserialize)]
-    struct Input {
-        correspondences: Vec<GrpsCorrespondence>,
-    }
-    let corrs: Vec<GrpsCorrespondence> = match serde_json::from_str::<Input>(text) {
-        Ok(input) => input.correspondences,
-        Err(_) => serde_json::from_str(text).map_err(|e| format!("invalid input JSON: {e}"))?,
-    };
+    let corrs: Vec<GrpsCorrespondence> = simhc_problems::input::parse_correspondences(text).map_err(|e| e.to_string())?;
     let s = solver(GrpsSolverOptions::default())?;
     let (report, validated) = match s.solve_report(&corrs) {
         Ok(r) => (r, true),

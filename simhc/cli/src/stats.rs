@@ -13,8 +13,10 @@ pub struct Outcome {
     pub scale_pct: Option<f64>,
     /// Wall time of the solve in microseconds.
     pub micros: f64,
-    /// Stage split (regressor, simulator, tracking) in microseconds, where the method has one.
+    /// Stage split (start, simulator, tracking) in microseconds, where the method has one.
     pub split: Option<[f64; 3]>,
+    /// The method returned its pose flagged as not validated (it is scored all the same).
+    pub flagged: bool,
 }
 
 /// A method's outcomes over all trials.
@@ -48,6 +50,11 @@ pub struct Summary {
     pub failures: usize,
     /// Success rate in percent (failures count as unsuccessful).
     pub success_pct: f64,
+    /// Poses returned flagged as not validated.
+    pub flagged: usize,
+    /// Poses returned unflagged that miss the success thresholds: wrong answers a caller would
+    /// take for right ones (methods without validation flag nothing).
+    pub wrong_unflagged: usize,
     /// Mean / median rotation error over the returned poses (degrees).
     pub rotation_mean_deg: f64,
     /// Median rotation error.
@@ -120,6 +127,8 @@ impl MethodRecord {
             trials: n,
             failures: self.outcomes.iter().filter(|o| o.rotation_deg.is_none()).count(),
             success_pct: if n == 0 { f64::NAN } else { 100.0 * successes as f64 / n as f64 },
+            flagged: self.outcomes.iter().filter(|o| o.flagged).count(),
+            wrong_unflagged: self.outcomes.iter().filter(|o| o.rotation_deg.is_some() && !o.flagged && !ok(o)).count(),
             rotation_mean_deg: mean(&er),
             rotation_median_deg: median(&er),
             translation_mean_pct: mean(&et),
@@ -138,19 +147,21 @@ pub fn table(rows: &[Summary]) -> String {
     let with_scale = rows.iter().any(|r| r.scale_mean_pct.is_some());
     let mut out = String::new();
     out.push_str(&format!(
-        "{:<34} {:>7} {:>5} {:>9} {:>9} {:>9} {:>9}",
-        "method", "succ%", "fail", "E_R mean", "E_R med", "E_t mean", "E_t med"
+        "{:<34} {:>7} {:>5} {:>5} {:>6} {:>9} {:>9} {:>9} {:>9}",
+        "method", "succ%", "fail", "flag", "wrong", "E_R mean", "E_R med", "E_t mean", "E_t med"
     ));
     if with_scale {
         out.push_str(&format!(" {:>9} {:>9}", "E_s mean", "E_s med"));
     }
-    out.push_str(&format!(" {:>10} {:>10}  {}\n", "t med us", "t mean us", "split med us (regr/sim/track)"));
+    out.push_str(&format!(" {:>10} {:>10}  {}\n", "t med us", "t mean us", "split med us (start/sim/track)"));
     for r in rows {
         out.push_str(&format!(
-            "{:<34} {:>7.1} {:>5} {:>9.3} {:>9.3} {:>9.3} {:>9.3}",
+            "{:<34} {:>7.1} {:>5} {:>5} {:>6} {:>9.3} {:>9.3} {:>9.3} {:>9.3}",
             r.method,
             r.success_pct,
             r.failures,
+            r.flagged,
+            r.wrong_unflagged,
             r.rotation_mean_deg,
             r.rotation_median_deg,
             r.translation_mean_pct,

@@ -11,12 +11,48 @@ use simhc_problems::metrics::{
 use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
 use simhc_problems::upnp::geometry::{translation_from_rotation, upnp_system};
 use simhc_problems::upnp::refine::{levenberg_marquardt, LmOptions};
-use simhc_problems::upnp::scene::{UpnpCorrespondence, UpnpScene, UpnpSceneConfig};
-use simhc_problems::upnp::solver::UpnpSolver;
+use simhc_problems::upnp::scene::{PointBox, UpnpCorrespondence, UpnpScene, UpnpSceneConfig};
+use simhc_problems::upnp::solver::{SolveError, StartKind, UpnpSolveReport, UpnpSolver, UpnpSolverOptions};
 use std::time::Instant;
 
 /// Success as in the paper's Table 1: rotation error below 2 degrees.
 pub const THRESHOLDS: Thresholds = Thresholds { rotation_deg: 2.0, translation_pct: None, scale_pct: None };
+
+/// `simhc bench upnp` options beyond the shared ones.
+#[derive(Debug, Clone, clap::Args)]
+pub struct UpnpArgs {
+    /// Frame of the sampled point box `[-1,1]^2 x [4,8]`: `viewer` (simhc's training
+    /// distribution) or `world` (the paper's text read literally, as the peers' generators do).
+    #[arg(long, value_enum, default_value_t = Layout::Viewer)]
+    pub layout: Layout,
+    /// Change the world and viewer frames of every sampled trial by random rigid motions.
+    #[arg(long)]
+    pub random_frames: bool,
+    /// Bearing noise in pixels at 800 px focal length.
+    #[arg(long, default_value_t = 2.0)]
+    pub noise_px: f64,
+}
+
+/// The `--layout` values.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum Layout {
+    /// Points in front of the rig (viewer frame).
+    Viewer,
+    /// Points in a world-frame box.
+    World,
+}
+
+impl UpnpArgs {
+    /// The benchmark options of these arguments.
+    pub fn options(&self, trials: usize, seed: u64) -> BenchOptions {
+        let layout = match self.layout {
+            Layout::Viewer => PointBox::Viewer,
+            Layout::World => PointBox::World,
+        };
+        let scene = UpnpSceneConfig { noise_px: self.noise_px, ..UpnpSceneConfig::default() };
+        BenchOptions { trials, seed, scene, layout, random_frames: self.random_frames }
+    }
+}
 
 /// Options of the benchmark.
 #[derive(Debug, Clone)]
@@ -27,6 +63,10 @@ pub struct BenchOptions {
     pub seed: u64,
     /// Scene settings.
     pub scene: UpnpSceneConfig,
+    /// Frame of the sampler's point box.
+    pub layout: PointBox,
+    /// Random rigid changes of the world and viewer frames.
+    pub random_frames: bool,
 }
 
 /// The benchmark's JSON document.
@@ -42,15 +82,25 @@ pub struct BenchReport {
     pub source: String,
     /// Success criterion.
     pub thresholds: Thresholds,
-    /// Rows in the paper's order.
+    /// Rows in the paper's order, then the linear start and the shipped solver.
     pub rows: Vec<Summary>,
+    /// How the shipped solver's poses were produced: the attempt that validated (1: the first
+    /// start, 2: the second start, 3: the all-roots fallback), counted over the trials.
+    pub shipped_attempts: [usize; 3],
 }
+
+/// The row of the shipped solver (starts, validation, fallback).
+pub const SHIPPED_ROW: &str = "simhc UPnP solver (shipped)";
+/// The paper's row: one path from the regressor's start.
+pub const PRED_HC_ROW: &str = "Pred Initial + Simulator HC";
+/// The all-roots row.
+pub const ALL_ROOTS_ROW: &str = "All-roots HC (1 thread)";
 
 /// Samples `n` seeded trials.
 pub fn sample_trials(options: &BenchOptions) -> Result<Vec<UpnpScene>, String> {
     let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
     (0..options.trials)
-        .map(|_| options.scene.sample(&mut rng).map_err(|e| e.to_string()))
+        .map(|_| options.scene.sample_with(options.layout, options.random_frames, &mut rng).map_err(|e| e.to_string()))
         .collect()
 }
 
@@ -61,6 +111,7 @@ fn outcome(r: &Matrix3<f64>, t: &nalgebra::Vector3<f64>, scene: &UpnpScene, micr
         scale_pct: None,
         micros,
         split,
+        flagged: false,
     }
 }
 
@@ -72,15 +123,44 @@ fn us(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e6
 }
 
+/// The outcome of a solver call: a validated pose, a flagged one (scored all the same), or none.
+fn solved(result: &Result<UpnpSolveReport, SolveError>, scene: &UpnpScene, micros: f64) -> Outcome {
+    let (report, flagged) = match result {
+        Ok(r) => (r, false),
+        Err(SolveError::NotValidated(r)) => (&**r, true),
+        Err(_) => return failed(micros),
+    };
+    let split = [us(report.times.start), us(report.times.simulator), us(report.times.tracking)];
+    Outcome { flagged, ..outcome(&report.pose.rotation, &report.pose.translation, scene, micros, Some(split)) }
+}
+
+/// A rotation start with its optimal translation.
+fn start_outcome(q: Result<[f64; 4], SolveError>, corrs: &[UpnpCorrespondence], scene: &UpnpScene, micros: f64) -> Outcome {
+    let pose = q.ok().and_then(|q| {
+        let r = rotation_from_quat(q);
+        translation_from_rotation(&r, corrs).ok().map(|t| (r, t))
+    });
+    match pose {
+        Some((r, t)) => outcome(&r, &t, scene, micros, None),
+        None => failed(micros),
+    }
+}
+
 /// Runs every row on the same trials, single-threaded.
 pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progress: bool) -> Result<BenchReport, String> {
-    let solver = UpnpSolver::new().map_err(|e| format!("loading the shipped regressor: {e}"))?;
+    let shipped = UpnpSolver::new().map_err(|e| format!("loading the shipped regressor: {e}"))?;
+    let pred_path = shipped.clone().with_options(UpnpSolverOptions::single_path(StartKind::Regressor));
+    let linear_path = shipped.clone().with_options(UpnpSolverOptions::single_path(StartKind::Linear));
     let mut start_rng = ChaCha8Rng::seed_from_u64(options.seed.wrapping_add(1));
     let mut pred = MethodRecord::new("Pred Initial");
     let mut pred_lm = MethodRecord::new("Pred Initial + LM");
     let mut rand_hc = MethodRecord::new("Rand Initial + Simulator HC");
-    let mut pred_hc = MethodRecord::new("Pred Initial + Simulator HC");
-    let mut all_roots = MethodRecord::new("All-roots HC (1 thread)");
+    let mut pred_hc = MethodRecord::new(PRED_HC_ROW);
+    let mut linear = MethodRecord::new("Linear Initial");
+    let mut linear_hc = MethodRecord::new("Linear Initial + Simulator HC");
+    let mut full = MethodRecord::new(SHIPPED_ROW);
+    let mut all_roots = MethodRecord::new(ALL_ROOTS_ROW);
+    let mut shipped_attempts = [0usize; 3];
     let all_roots_options = simhc::all_roots::AllRootsOptions::default();
     let bar = crate::progress_bar(trials.len() as u64, progress);
     for scene in trials {
@@ -88,20 +168,13 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
 
         // Pred Initial: the regressor's rotation with its optimal translation.
         let t0 = Instant::now();
-        let q0 = solver.predict(corrs);
-        let prediction = q0.as_ref().ok().and_then(|q| {
-            let r = rotation_from_quat(*q);
-            translation_from_rotation(&r, corrs).ok().map(|t| (r, t))
-        });
+        let q0 = shipped.predict(corrs);
         let micros = us(t0.elapsed());
-        pred.outcomes.push(match prediction {
-            Some((r, t)) => outcome(&r, &t, scene, micros, None),
-            None => failed(micros),
-        });
+        pred.outcomes.push(start_outcome(q0, corrs, scene, micros));
 
         // Pred Initial + LM: local refinement of the object-space cost from the prediction.
         let t0 = Instant::now();
-        let refined = solver.predict(corrs).ok().and_then(|q| {
+        let refined = shipped.predict(corrs).ok().and_then(|q| {
             let r = rotation_from_quat(q);
             let t = translation_from_rotation(&r, corrs).ok()?;
             Some(levenberg_marquardt(&r, &t, corrs, &LmOptions::default()))
@@ -115,27 +188,30 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
         // Rand Initial + Simulator HC (the random start is drawn outside the timing).
         let q_rand = random_unit_quaternion(&mut start_rng);
         let t0 = Instant::now();
-        let result = solver.solve_from(corrs, q_rand);
-        let micros = us(t0.elapsed());
-        rand_hc.outcomes.push(match result {
-            Ok(r) => outcome(&r.pose.rotation, &r.pose.translation, scene, micros, Some([0.0, us(r.times.simulator), us(r.times.tracking)])),
-            Err(_) => failed(micros),
-        });
+        let result = shipped.solve_from(corrs, q_rand);
+        rand_hc.outcomes.push(solved(&result, scene, us(t0.elapsed())));
 
-        // Pred Initial + Simulator HC: the full solver.
+        // Pred Initial + Simulator HC: the paper's one path from the regressor.
         let t0 = Instant::now();
-        let result = solver.solve_report(corrs);
+        let result = pred_path.solve_report(corrs);
+        pred_hc.outcomes.push(solved(&result, scene, us(t0.elapsed())));
+
+        // Linear Initial, and one path from it.
+        let t0 = Instant::now();
+        let q0 = shipped.linear_start(corrs);
         let micros = us(t0.elapsed());
-        pred_hc.outcomes.push(match result {
-            Ok(r) => outcome(
-                &r.pose.rotation,
-                &r.pose.translation,
-                scene,
-                micros,
-                Some([us(r.times.regressor), us(r.times.simulator), us(r.times.tracking)]),
-            ),
-            Err(_) => failed(micros),
-        });
+        linear.outcomes.push(start_outcome(q0, corrs, scene, micros));
+        let t0 = Instant::now();
+        let result = linear_path.solve_report(corrs);
+        linear_hc.outcomes.push(solved(&result, scene, us(t0.elapsed())));
+
+        // The shipped solver: starts in order, validation, all-roots fallback.
+        let t0 = Instant::now();
+        let result = shipped.solve_report(corrs);
+        full.outcomes.push(solved(&result, scene, us(t0.elapsed())));
+        if let Ok(r) = &result {
+            shipped_attempts[r.attempts.clamp(1, 3) - 1] += 1;
+        }
 
         // All-roots HC: every path of the Lagrange system from the shipped start system, the
         // real solution closest to the ground truth kept (the paper's choice).
@@ -164,29 +240,36 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let rows: Vec<Summary> = [pred, pred_lm, rand_hc, pred_hc, all_roots].iter().map(|m| m.summary(&THRESHOLDS)).collect();
-    Ok(BenchReport { problem: "upnp", seed: options.seed, trials: trials.len(), source, thresholds: THRESHOLDS, rows })
+    let rows: Vec<Summary> = [pred, pred_lm, rand_hc, pred_hc, linear, linear_hc, full, all_roots]
+        .iter()
+        .map(|m| m.summary(&THRESHOLDS))
+        .collect();
+    Ok(BenchReport { problem: "upnp", seed: options.seed, trials: trials.len(), source, thresholds: THRESHOLDS, rows, shipped_attempts })
 }
 
 /// `simhc solve upnp --input F`: the pose of the correspondences in a JSON file
 /// (`{"correspondences": [{"p": [..], "f": [..], "v": [..]}, ..]}`, or a bare array of them).
 pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
-    #[derive(serde::Deserialize)]
-    struct Input {
-        correspondences: Vec<UpnpCorrespondence>,
-    }
-    let corrs: Vec<UpnpCorrespondence> = match serde_json::from_str::<Input>(text) {
-        Ok(input) => input.correspondences,
-        Err(_) => serde_json::from_str(text).map_err(|e| format!("invalid input JSON: {e}"))?,
-    };
+    let corrs: Vec<UpnpCorrespondence> = simhc_problems::input::parse_correspondences(text).map_err(|e| e.to_string())?;
     let solver = UpnpSolver::new().map_err(|e| format!("loading the shipped regressor: {e}"))?;
-    let report = solver.solve_report(&corrs).map_err(|e| e.to_string())?;
+    // A pose that did not validate is printed with `"validated": false`, never as a plain pose.
+    let (report, validated) = match solver.solve_report(&corrs) {
+        Ok(r) => (r, true),
+        Err(SolveError::NotValidated(r)) => (*r, false),
+        Err(e) => return Err(e.to_string()),
+    };
     let r = report.pose.rotation;
     Ok(serde_json::json!({
         "rotation": [[r[(0, 0)], r[(0, 1)], r[(0, 2)]], [r[(1, 0)], r[(1, 1)], r[(1, 2)]], [r[(2, 0)], r[(2, 1)], r[(2, 2)]]],
         "translation": [report.pose.translation.x, report.pose.translation.y, report.pose.translation.z],
         "quaternion_wxyz": quat_from_rotation(&r),
         "convention": "alpha_i f_i + v_i = R p_i + t",
+        "validated": validated,
+        "max_angular_residual": report.validation.max_angle,
+        "behind_ray_origin": report.validation.behind,
+        "start": format!("{:?}", report.start_kind),
+        "method": format!("{:?}", report.method),
+        "attempts": report.attempts,
         "track": {"accepted_steps": report.stats.accepted_steps, "rejected_steps": report.stats.rejected_steps, "newton_iterations": report.stats.newton_iterations},
     }))
 }

@@ -1,0 +1,327 @@
+//! Reading correspondences and trials from JSON with errors that say where.
+//!
+//! serde's derived readers report the first mismatch of the *outer* shape they tried ("invalid
+//! type: map, expected a sequence at line 1 column 0" for a bearing of two numbers, once the
+//! input may be either an object or a bare array). Here the document is parsed once into a
+//! [`serde_json::Value`] and walked by hand, so that every error names its place: trial,
+//! correspondence, field and component.
+//!
+//! ```text
+//! correspondence 3, field `f`: expected an array of 3 numbers, got an array of 2
+//! trial 12, field `rotation`, row 1: expected an array of 3 numbers, got a string
+//! malformed JSON at line 4, column 17: expected value (NaN and Infinity are not JSON numbers; write them as finite numbers)
+//! ```
+//!
+//! Non-finite values cannot occur in JSON; finite numbers outside what the solver accepts
+//! (zero bearings, too few correspondences) are the solver's typed errors.
+
+use serde_json::Value;
+use std::fmt;
+use thiserror::Error;
+
+/// A correspondence type read field by field: every field is a 3-vector.
+pub trait VectorFields: Sized {
+    /// Field names, in the order [`VectorFields::from_fields`] takes them.
+    const FIELDS: &'static [&'static str];
+    /// The record from its fields, in [`VectorFields::FIELDS`] order.
+    fn from_fields(fields: &[[f64; 3]]) -> Self;
+}
+
+/// A trial (correspondences with a ground truth) read from JSON.
+pub trait TrialFields: Sized {
+    /// The correspondence type.
+    type Correspondence: VectorFields;
+    /// Whether the ground truth has a `scale` field.
+    const HAS_SCALE: bool;
+    /// The trial from its parts (`scale` is 1 without a scale field).
+    fn from_parts(correspondences: Vec<Self::Correspondence>, rotation: [[f64; 3]; 3], translation: [f64; 3], scale: f64) -> Self;
+}
+
+/// Where in the document an error is.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Location {
+    /// Index of the trial in a trials file.
+    pub trial: Option<usize>,
+    /// Index of the correspondence.
+    pub correspondence: Option<usize>,
+    /// The field name.
+    pub field: Option<&'static str>,
+    /// Row of a matrix field.
+    pub row: Option<usize>,
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut parts = Vec::new();
+        if let Some(t) = self.trial {
+            parts.push(format!("trial {t}"));
+        }
+        if let Some(c) = self.correspondence {
+            parts.push(format!("correspondence {c}"));
+        }
+        if let Some(name) = self.field {
+            parts.push(format!("field `{name}`"));
+        }
+        if let Some(r) = self.row {
+            parts.push(format!("row {r}"));
+        }
+        if parts.is_empty() {
+            parts.push("document".to_string());
+        }
+        write!(f, "{}", parts.join(", "))
+    }
+}
+
+/// Why a JSON input was rejected.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum InputError {
+    /// Not JSON at all.
+    #[error("malformed JSON at line {line}, column {column}: {message}")]
+    Syntax {
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// serde_json's description, with a hint for `NaN` / `Infinity`.
+        message: String,
+    },
+    /// JSON of the wrong shape at `at`.
+    #[error("{at}: expected {expected}, got {got}")]
+    Shape {
+        /// Where.
+        at: Location,
+        /// What was expected there.
+        expected: String,
+        /// What was found (its JSON type, or an array's length).
+        got: String,
+    },
+    /// A required field is absent.
+    #[error("{at}: missing field `{field}`")]
+    Missing {
+        /// The object that lacks it.
+        at: Location,
+        /// The field.
+        field: &'static str,
+    },
+    /// A field the format does not have (a misspelling, usually).
+    #[error("{at}: unknown field `{field}`, expected one of {expected}")]
+    Unknown {
+        /// The object that has it.
+        at: Location,
+        /// The field.
+        field: String,
+        /// The fields of the format.
+        expected: String,
+    },
+}
+
+/// Correspondences from `{"correspondences": [...]}` or a bare array of them.
+pub fn parse_correspondences<C: VectorFields>(text: &str) -> Result<Vec<C>, InputError> {
+    let doc = parse(text)?;
+    let at = Location::default();
+    let list = match &doc {
+        Value::Object(map) => {
+            check_fields(map, &["correspondences"], &at)?;
+            map.get("correspondences").ok_or(InputError::Missing { at: at.clone(), field: "correspondences" })?
+        }
+        other => other,
+    };
+    correspondences(list, &at)
+}
+
+/// Trials from a JSON array of `{"correspondences": [...], "rotation": [[..], [..], [..]],
+/// "translation": [..]}` (plus `"scale"` where the problem has one).
+pub fn parse_trials<T: TrialFields>(text: &str) -> Result<Vec<T>, InputError> {
+    let doc = parse(text)?;
+    let trials = doc.as_array().ok_or_else(|| shape(Location::default(), "an array of trials", &doc))?;
+    let fields: &[&str] = if T::HAS_SCALE {
+        &["correspondences", "rotation", "translation", "scale"]
+    } else {
+        &["correspondences", "rotation", "translation"]
+    };
+    trials
+        .iter()
+        .enumerate()
+        .map(|(i, trial)| {
+            let at = Location { trial: Some(i), ..Location::default() };
+            let map = trial.as_object().ok_or_else(|| shape(at.clone(), "an object", trial))?;
+            check_fields(map, fields, &at)?;
+            let get = |field: &'static str| map.get(field).ok_or(InputError::Missing { at: at.clone(), field });
+            let corrs = correspondences(get("correspondences")?, &at)?;
+            let field_at = |field| Location { field: Some(field), ..at.clone() };
+            let rows = get("rotation")?;
+            let rows_list = rows.as_array().filter(|r| r.len() == 3).ok_or_else(|| shape(field_at("rotation"), "an array of 3 rows", rows))?;
+            let mut rotation = [[0.0; 3]; 3];
+            for (r, row) in rows_list.iter().enumerate() {
+                rotation[r] = vector(row, Location { row: Some(r), ..field_at("rotation") })?;
+            }
+            let translation = vector(get("translation")?, field_at("translation"))?;
+            let scale = if T::HAS_SCALE {
+                let s = get("scale")?;
+                s.as_f64().ok_or_else(|| shape(field_at("scale"), "a number", s))?
+            } else {
+                1.0
+            };
+            Ok(T::from_parts(corrs, rotation, translation, scale))
+        })
+        .collect()
+}
+
+fn parse(text: &str) -> Result<Value, InputError> {
+    serde_json::from_str(text).map_err(|e| {
+        let (line, column) = (e.line(), e.column());
+        let mut message = e.to_string();
+        // serde_json appends " at line L column C"; the variant carries them already.
+        if let Some(cut) = message.rfind(" at line ") {
+            message.truncate(cut);
+        }
+        let rest = text.lines().nth(line.saturating_sub(1)).map(|l| l.chars().skip(column.saturating_sub(1)).collect::<String>()).unwrap_or_default();
+        let rest = rest.trim_start().trim_start_matches('-');
+        if rest.starts_with("NaN") || rest.starts_with("Infinity") || rest.starts_with("nan") || rest.starts_with("inf") {
+            message.push_str(" (NaN and Infinity are not JSON numbers; every value must be a finite number)");
+        }
+        InputError::Syntax { line, column, message }
+    })
+}
+
+fn correspondences<C: VectorFields>(list: &Value, at: &Location) -> Result<Vec<C>, InputError> {
+    let field_at = Location { field: Some("correspondences"), ..at.clone() };
+    let items = list.as_array().ok_or_else(|| shape(field_at, "an array of correspondences", list))?;
+    items
+        .iter()
+        .enumerate()
+        .map(|(i, item)| {
+            let at = Location { correspondence: Some(i), ..at.clone() };
+            let map = item.as_object().ok_or_else(|| shape(at.clone(), format!("an object with fields {}", names(C::FIELDS)), item))?;
+            check_fields(map, C::FIELDS, &at)?;
+            let fields = C::FIELDS
+                .iter()
+                .map(|&name| {
+                    let value = map.get(name).ok_or(InputError::Missing { at: at.clone(), field: name })?;
+                    vector(value, Location { field: Some(name), ..at.clone() })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok(C::from_fields(&fields))
+        })
+        .collect()
+}
+
+fn vector(value: &Value, at: Location) -> Result<[f64; 3], InputError> {
+    let expected = "an array of 3 numbers";
+    let items = value.as_array().ok_or_else(|| shape(at.clone(), expected, value))?;
+    if items.len() != 3 {
+        return Err(InputError::Shape { at, expected: expected.to_string(), got: format!("an array of {}", items.len()) });
+    }
+    let mut out = [0.0; 3];
+    for (k, item) in items.iter().enumerate() {
+        out[k] = item.as_f64().ok_or_else(|| InputError::Shape { at: at.clone(), expected: expected.to_string(), got: format!("{} at index {k}", kind(item)) })?;
+    }
+    Ok(out)
+}
+
+fn check_fields(map: &serde_json::Map<String, Value>, fields: &[&str], at: &Location) -> Result<(), InputError> {
+    match map.keys().find(|k| !fields.contains(&k.as_str())) {
+        Some(field) => Err(InputError::Unknown { at: at.clone(), field: field.clone(), expected: names(fields) }),
+        None => Ok(()),
+    }
+}
+
+fn names(fields: &[&str]) -> String {
+    fields.iter().map(|f| format!("`{f}`")).collect::<Vec<_>>().join(", ")
+}
+
+fn shape(at: Location, expected: impl Into<String>, got: &Value) -> InputError {
+    InputError::Shape { at, expected: expected.into(), got: kind(got).to_string() }
+}
+
+fn kind(value: &Value) -> &'static str {
+    match value {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grps::scene::{GrpsCorrespondence, GrpsScene};
+    use crate::upnp::scene::{UpnpCorrespondence, UpnpScene};
+
+    const GOOD: &str = r#"{"correspondences": [
+        {"p": [1, 2, 3], "f": [0, 0, 1], "v": [0.5, 0, 0]},
+        {"p": [2, 2, 3], "f": [0, 1, 0], "v": [0, 0, 0]}
+    ]}"#;
+
+    #[test]
+    fn both_forms_parse() {
+        let a: Vec<UpnpCorrespondence> = parse_correspondences(GOOD).unwrap();
+        assert_eq!(a.len(), 2);
+        assert_eq!(a[0].v.x, 0.5);
+        let bare = r#"[{"p": [1, 2, 3], "f": [0, 0, 1], "v": [0.5, 0, 0]}]"#;
+        let b: Vec<UpnpCorrespondence> = parse_correspondences(bare).unwrap();
+        assert_eq!(b[0], a[0]);
+    }
+
+    #[test]
+    fn errors_say_where() {
+        let short = GOOD.replace(r#""f": [0, 1, 0]"#, r#""f": [0, 1]"#);
+        let e = parse_correspondences::<UpnpCorrespondence>(&short).unwrap_err();
+        assert_eq!(e.to_string(), "correspondence 1, field `f`: expected an array of 3 numbers, got an array of 2");
+
+        let text = GOOD.replace(r#""v": [0.5, 0, 0]"#, r#""v": [0.5, "x", 0]"#);
+        let e = parse_correspondences::<UpnpCorrespondence>(&text).unwrap_err();
+        assert_eq!(e.to_string(), "correspondence 0, field `v`: expected an array of 3 numbers, got a string at index 1");
+
+        let missing = GOOD.replace(r#", "v": [0, 0, 0]"#, "");
+        let e = parse_correspondences::<UpnpCorrespondence>(&missing).unwrap_err();
+        assert_eq!(e, InputError::Missing { at: Location { correspondence: Some(1), ..Location::default() }, field: "v" });
+
+        let typo = GOOD.replace(r#""p": [2"#, r#""P": [2"#);
+        let e = parse_correspondences::<UpnpCorrespondence>(&typo).unwrap_err();
+        assert!(e.to_string().starts_with("correspondence 1: unknown field `P`, expected one of `p`, `f`, `v`"), "{e}");
+
+        let e = parse_correspondences::<UpnpCorrespondence>(r#"{"correspondences": 3}"#).unwrap_err();
+        assert_eq!(e.to_string(), "field `correspondences`: expected an array of correspondences, got a number");
+    }
+
+    #[test]
+    fn nan_is_a_syntax_error_with_a_hint() {
+        let text = GOOD.replace(r#""f": [0, 0, 1]"#, r#""f": [0, NaN, 1]"#);
+        match parse_correspondences::<UpnpCorrespondence>(&text).unwrap_err() {
+            InputError::Syntax { line, column, message } => {
+                assert_eq!(line, 2);
+                assert!(column > 20, "column {column}");
+                assert!(message.contains("NaN and Infinity are not JSON numbers"), "{message}");
+            }
+            e => panic!("{e}"),
+        }
+        let e = parse_correspondences::<UpnpCorrespondence>("{\"correspondences\": [").unwrap_err();
+        assert!(matches!(e, InputError::Syntax { line: 1, .. }), "{e}");
+    }
+
+    #[test]
+    fn trials_round_trip_and_report_their_index() {
+        let scenes: Vec<UpnpScene> = (0..3).map(|s| crate::upnp::scene::UpnpSceneConfig::default().sample_seeded(s).unwrap()).collect();
+        let text = serde_json::to_string(&scenes).unwrap();
+        let back: Vec<UpnpScene> = parse_trials(&text).unwrap();
+        assert_eq!(back, scenes);
+
+        let mut doc: Value = serde_json::from_str(&text).unwrap();
+        doc[2]["rotation"][1] = Value::String("x".into());
+        let e = parse_trials::<UpnpScene>(&doc.to_string()).unwrap_err();
+        assert_eq!(e.to_string(), "trial 2, field `rotation`, row 1: expected an array of 3 numbers, got a string");
+
+        let grps: Vec<GrpsScene> = (0..2).map(|s| crate::grps::scene::GrpsSceneConfig::default().sample_seeded(s).unwrap()).collect();
+        let text = serde_json::to_string(&grps).unwrap();
+        assert_eq!(parse_trials::<GrpsScene>(&text).unwrap(), grps);
+        let mut doc: Value = serde_json::from_str(&text).unwrap();
+        doc[1].as_object_mut().unwrap().remove("scale");
+        let e = parse_trials::<GrpsScene>(&doc.to_string()).unwrap_err();
+        assert_eq!(e.to_string(), "trial 1: missing field `scale`");
+        let _: Vec<GrpsCorrespondence> = parse_correspondences(r#"[{"f": [0,0,1], "v": [0,0,0], "fp": [0,0,1], "vp": [1,0,0]}]"#).unwrap();
+    }
+}

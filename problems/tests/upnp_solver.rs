@@ -64,6 +64,18 @@ fn bad_input_gets_typed_errors() {
     zero[2].f = Vector3::zeros();
     assert!(matches!(solver.solve(&zero), Err(SolveError::Input(UpnpError::ZeroBearing { index: 2 }))));
 
+    // Degenerate geometry: world points on one line leave the rotation about it free.
+    let mut line = scene.correspondences.clone();
+    for (i, c) in line.iter_mut().enumerate() {
+        c.p = Vector3::new(1.0, 2.0, 3.0) * i as f64;
+    }
+    assert!(matches!(solver.solve(&line), Err(SolveError::Input(UpnpError::CollinearPoints))));
+    let mut same = scene.correspondences.clone();
+    for c in &mut same {
+        c.p = Vector3::new(1.0, 2.0, 3.0);
+    }
+    assert!(matches!(solver.solve(&same), Err(SolveError::Input(UpnpError::CollinearPoints))));
+
     let empty: Vec<UpnpCorrespondence> = Vec::new();
     assert!(solver.solve(&empty).is_err());
 }

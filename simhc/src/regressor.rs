@@ -36,19 +36,18 @@
 //! input width, the first head layer's the last point layer's), every width is at most
 //! [`MAX_WIDTH`], and nothing may follow the last layer.
 //!
-//! # Input rows for UPnP ([`upnp_rows`])
+//! # Input rows
 //!
-//! The UPnP regressor reads one row `[p~, f~, v~]` (9 numbers) per correspondence
-//! `(p, f, v)`; the exact normalization is documented at [`upnp_rows`] and is shared by training
-//! (the `simhc-regressor` crate calls the same function) and inference. The shipped UPnP
-//! weights are `problems/weights/upnp.folded`; at inference:
+//! A problem's input rows (one per correspondence) and the decoding of the outputs are the
+//! problem's own, shared by training and inference (UPnP: `simhc_problems::upnp::features`,
+//! GRPS: `simhc_problems::grps::features`); at inference:
 //!
 //! ```text
 //! let net = FoldedNetwork::from_bytes(include_bytes!(".../upnp.folded"))?;   // once
-//! let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * n];                          // once per size
-//! upnp_rows(n, |i| (p[i], f[i], v[i]), &mut rows)?;                         // per solve
-//! let mut q = [0.0f64; 4];
-//! net.forward(&rows, &mut q)?;                     // unit quaternion [w, x, y, z], sign free
+//! let mut rows = vec![0.0f32; width * n];                                   // once per size
+//! /* the problem's rows */                                                  // per solve
+//! let mut out = [0.0f64; 4];
+//! net.forward(&rows, &mut out)?;                   // unit quaternion [w, x, y, z], sign free
 //! ```
 
 use thiserror::Error;
@@ -63,8 +62,6 @@ const ROW_BLOCK: usize = 4;
 /// Magic bytes at the start of the binary format.
 pub const FOLDED_MAGIC: &[u8; 8] = b"SHCFOLD1";
 
-/// Number of input numbers per correspondence of the UPnP regressor (see [`upnp_rows`]).
-pub const UPNP_ROW_WIDTH: usize = 9;
 
 /// Errors of loading or running a [`FoldedNetwork`].
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
@@ -503,75 +500,6 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Writes the UPnP regressor's input rows for `n` correspondences `get(i) = (p_i, f_i, v_i)`
-/// (world point, bearing, ray origin; convention `alpha f + v = R p + t`) into `out`
-/// (`n * 9` numbers, row `i` at `out[9 i..9 i + 9]`). No allocation.
-///
-/// Row `i` is `[(p_i - p_mean) / s, f_i / |f_i|, (v_i - v_mean) / s]` with the means over the
-/// `n` correspondences and `s = sqrt(mean_i |p_i - p_mean|²)` (`s = 1` if that is zero).
-/// Centring `p` (a world-frame translation), centring `v` (a viewer-frame translation) and the
-/// common scale `s` (a similarity of both frames) leave the rotation `R` unchanged, so the
-/// rows carry exactly the information about `R` the raw correspondences do, at a fixed scale.
-/// Sums are in `f64`, the rows rounded to `f32` at the end.
-///
-/// Errors: [`RegressorError::EmptyInput`] for `n == 0`, [`RegressorError::OutputLength`] if
-/// `out.len() != 9 n`, [`RegressorError::NonFinite`] for a non-finite input or a zero bearing.
-pub fn upnp_rows<G>(n: usize, get: G, out: &mut [f32]) -> Result<(), RegressorError>
-where
-    G: Fn(usize) -> ([f64; 3], [f64; 3], [f64; 3]),
-{
-    if n == 0 {
-        return Err(RegressorError::EmptyInput);
-    }
-    if out.len() != UPNP_ROW_WIDTH * n {
-        return Err(RegressorError::OutputLength {
-            expected: UPNP_ROW_WIDTH * n,
-            got: out.len(),
-        });
-    }
-    let mut p_mean = [0.0f64; 3];
-    let mut v_mean = [0.0f64; 3];
-    for i in 0..n {
-        let (p, f, v) = get(i);
-        if p.iter().chain(&f).chain(&v).any(|x| !x.is_finite()) {
-            return Err(RegressorError::NonFinite);
-        }
-        for k in 0..3 {
-            p_mean[k] += p[k];
-            v_mean[k] += v[k];
-        }
-    }
-    let inv_n = 1.0 / n as f64;
-    for k in 0..3 {
-        p_mean[k] *= inv_n;
-        v_mean[k] *= inv_n;
-    }
-    let mut spread = 0.0;
-    for i in 0..n {
-        let (p, _, _) = get(i);
-        spread += (0..3).map(|k| (p[k] - p_mean[k]).powi(2)).sum::<f64>();
-    }
-    let s = (spread * inv_n).sqrt();
-    let inv_s = if s > 0.0 && s.is_finite() {
-        1.0 / s
-    } else {
-        1.0
-    };
-    for (i, row) in out.chunks_exact_mut(UPNP_ROW_WIDTH).enumerate() {
-        let (p, f, v) = get(i);
-        let f_norm = f.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if f_norm == 0.0 || !f_norm.is_finite() {
-            return Err(RegressorError::NonFinite);
-        }
-        for k in 0..3 {
-            row[k] = ((p[k] - p_mean[k]) * inv_s) as f32;
-            row[3 + k] = (f[k] / f_norm) as f32;
-            row[6 + k] = ((v[k] - v_mean[k]) * inv_s) as f32;
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -742,29 +670,5 @@ mod tests {
             FoldedNetwork::from_bytes(b"NOTMAGIC"),
             Err(RegressorError::Format(_))
         ));
-    }
-
-    #[test]
-    fn upnp_rows_are_normalized() {
-        let pts = [
-            ([1.0, 2.0, 3.0], [0.0, 0.0, 2.0], [0.5, 0.0, 0.0]),
-            ([3.0, 2.0, 3.0], [0.0, 3.0, 0.0], [-0.5, 0.0, 0.0]),
-        ];
-        let mut out = [0.0f32; 18];
-        upnp_rows(2, |i| pts[i], &mut out).unwrap();
-        // p_mean = (2,2,3), s = 1; v_mean = 0
-        assert_eq!(&out[..9], &[-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.5, 0.0, 0.0]);
-        assert_eq!(&out[9..], &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, -0.5, 0.0, 0.0]);
-        assert_eq!(
-            upnp_rows(2, |i| pts[i], &mut out[..9]),
-            Err(RegressorError::OutputLength {
-                expected: 18,
-                got: 9
-            })
-        );
-        assert_eq!(
-            upnp_rows(1, |_| ([0.0; 3], [0.0; 3], [0.0; 3]), &mut out[..9]),
-            Err(RegressorError::NonFinite)
-        );
     }
 }

@@ -67,6 +67,9 @@ pub enum UpnpError {
     /// `sum_i V_i` is singular: all bearings are parallel, the translation is not determined.
     #[error("degenerate configuration: all bearings parallel, translation not determined")]
     Degenerate,
+    /// The world points lie on one line (or coincide): the rotation about it is not determined.
+    #[error("degenerate configuration: all world points on one line, rotation not determined")]
+    CollinearPoints,
 }
 
 /// Checks count, finiteness and non-zero bearings.
@@ -92,6 +95,21 @@ pub fn validate(corrs: &[UpnpCorrespondence]) -> Result<(), UpnpError> {
         }
     }
     Ok(())
+}
+
+/// [`UpnpError::CollinearPoints`] when the second principal spread of the world points is at most
+/// `1e-12` of the first (all on one line, or all equal).
+pub fn check_spread(corrs: &[UpnpCorrespondence]) -> Result<(), UpnpError> {
+    let n = corrs.len().max(1) as f64;
+    let mean = corrs.iter().map(|c| c.p).sum::<Vector3<f64>>() / n;
+    let cov = corrs.iter().fold(Matrix3::zeros(), |acc, c| acc + (c.p - mean) * (c.p - mean).transpose());
+    let mut eig = cov.symmetric_eigenvalues();
+    eig.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
+    if eig[0] > 0.0 && eig[1] > 1e-12 * eig[0] {
+        Ok(())
+    } else {
+        Err(UpnpError::CollinearPoints)
+    }
 }
 
 /// `s(q) = [q0², q1², q2², q3², q0q1, q0q2, q0q3, q1q2, q1q3, q2q3, 1]` (no normalization).

@@ -1,4 +1,5 @@
 //! Generalized absolute pose via UPnP: declaration, scene sampler, cost matrix, simulator.
+pub mod features;
 pub mod geometry;
 pub mod linear;
 pub mod refine;

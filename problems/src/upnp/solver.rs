@@ -20,7 +20,7 @@
 //! distribution the regressor was trained on. [`StartKind::Regressor`] is the learned start.
 //! [`UpnpSolverOptions::starts`] sets their order.
 
-use super::geometry::{reproject_in_place, upnp_system, validate, UpnpError, UpnpSystem};
+use super::geometry::{check_spread, reproject_in_place, upnp_system, validate, UpnpError, UpnpSystem};
 use super::linear::{linear_rotation, LinearStartError};
 use super::scene::UpnpCorrespondence;
 use super::{params_of, Upnp};
@@ -29,7 +29,8 @@ use crate::start_systems::solve_upnp;
 use nalgebra::{Matrix3, SVector, Vector3};
 use simhc::all_roots::AllRootsOptions;
 use simhc::homotopy::CoefficientLine;
-use simhc::regressor::{upnp_rows, FoldedNetwork, RegressorError, UPNP_ROW_WIDTH};
+use super::features::{UpnpFrame, UPNP_OUTPUTS, UPNP_ROW_WIDTH};
+use simhc::regressor::{FoldedNetwork, RegressorError};
 use simhc::tracker::{track, TrackError, TrackStats, TrackerOptions};
 use std::time::{Duration, Instant};
 use thiserror::Error;
@@ -250,12 +251,16 @@ impl UpnpSolver {
         self.predict_unchecked(corrs)
     }
 
+    /// The regressor on the canonical rows ([`super::features`]), decoded to the input frames.
     fn predict_unchecked(&self, corrs: &[UpnpCorrespondence]) -> Result<[f64; 4], SolveError> {
+        let frame = UpnpFrame::new(corrs).ok_or(UpnpError::CollinearPoints)?;
         let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * corrs.len()];
-        upnp_rows(corrs.len(), |i| (corrs[i].p.into(), corrs[i].f.into(), corrs[i].v.into()), &mut rows)?;
-        let mut q = [0.0f64; 4];
-        self.network.forward(&rows, &mut q)?;
-        Ok(q)
+        if !frame.rows(corrs, &mut rows) {
+            return Err(RegressorError::NonFinite.into());
+        }
+        let mut out = [0.0f64; UPNP_OUTPUTS];
+        self.network.forward(&rows, &mut out)?;
+        Ok(frame.decode(&out).ok_or(RegressorError::NonFinite)?)
     }
 
     /// The start quaternion of the linear relaxation.
@@ -288,6 +293,7 @@ impl UpnpSolver {
         let mut times = StageTimes::default();
         let ts = Instant::now();
         let target = upnp_system(corrs)?;
+        check_spread(corrs)?;
         times.simulator += ts.elapsed();
 
         let mut attempts = 0;
@@ -297,7 +303,7 @@ impl UpnpSolver {
             let t0 = Instant::now();
             let q0 = match kind {
                 StartKind::Linear => linear_rotation(corrs).map(|r| quat_from_rotation(&r)).map_err(SolveError::from),
-                StartKind::Regressor => self.predict_unchecked(corrs).and_then(|q| normalized(q).ok_or(SolveError::Tracker(TrackError::NonFinite { t: 0.0 }))),
+                StartKind::Regressor => self.predict_unchecked(corrs),
                 StartKind::Given => given.ok_or(SolveError::Input(UpnpError::NonFinite { index: usize::MAX })),
             };
             times.start += t0.elapsed();

@@ -3,7 +3,7 @@
 //!
 //! The data set does no normalization of its own: the sample function returns rows that are
 //! already in the network's input convention, so inference only has to call the same function
-//! that built the training rows (for UPnP, [`simhc::regressor::upnp_rows`], see
+//! that built the training rows (for UPnP, `simhc_problems::upnp::features`, see
 //! [`crate::upnp`]).
 
 use burn::prelude::*;

@@ -38,7 +38,7 @@ impl RegressorConfig {
     /// The UPnP network shipped with simhc: 9 -> 32 -> 64 -> 64 -> 128, max-pool, 128 -> 64 -> 4.
     pub fn upnp() -> Self {
         Self::new(
-            simhc::regressor::UPNP_ROW_WIDTH,
+            simhc_problems::upnp::features::UPNP_ROW_WIDTH,
             vec![32, 64, 64, 128],
             vec![64],
         )

@@ -1,47 +1,47 @@
 //! UPnP training data and the training command: scenes from the paper's sampler
-//! ([`UpnpSceneConfig`]), input rows from [`simhc::regressor::upnp_rows`] (the same function
-//! the runtime calls at inference), targets the ground-truth quaternion `[w, x, y, z]` with
-//! `w >= 0` ([`quat_from_rotation`]).
+//! ([`UpnpSceneConfig::sample_with`]) over every frame, input rows in canonical frames
+//! ([`UpnpFrame`], the same code the runtime calls at inference), targets the quaternion of the
+//! canonical rotation `V R W^T`.
+//!
+//! The distribution covers all rotations and both point layouts: scene `i` has its points in
+//! the viewer box for even `i` and in the world box for odd `i`, and its world and viewer frames
+//! changed by uniformly random rigid motions. The canonical frames remove the frames again up
+//! to their sign and axis choices, so what the network learns does not depend on them.
 //!
 //! Seeds: the training scenes are drawn one after another from
-//! `ChaCha8Rng::seed_from_u64(seed)`; validation scene `i` is
-//! `UpnpSceneConfig::sample_seeded(valid_first_seed + i)`, a different stream, so the two sets
-//! do not overlap.
+//! `ChaCha8Rng::seed_from_u64(seed)`; validation scene `i` is drawn from
+//! `ChaCha8Rng::seed_from_u64(valid_first_seed + i)`, a different stream, so the two sets do not
+//! overlap.
 
 use crate::data::{DataError, InMemoryDataset, Sample};
 use crate::model::{PoseRegressor, RegressorConfig};
 use crate::training::{self, RotationStats, TrainConfig, TrainReport};
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use simhc::regressor::{upnp_rows, RegressorError, UPNP_ROW_WIDTH};
-use simhc_problems::metrics::quat_from_rotation;
-use simhc_problems::upnp::scene::{UpnpCorrespondence, UpnpScene, UpnpSceneConfig};
+use simhc_problems::upnp::features::{UpnpFrame, UPNP_OUTPUTS, UPNP_ROW_WIDTH};
+use simhc_problems::upnp::scene::{PointBox, UpnpScene, UpnpSceneConfig};
 use std::time::Instant;
 
-/// Writes the regressor's input rows of `correspondences` into `out`
-/// (`9 * correspondences.len()` numbers); see [`upnp_rows`] for the normalization.
-pub fn correspondence_rows(
-    correspondences: &[UpnpCorrespondence],
-    out: &mut [f32],
-) -> Result<(), RegressorError> {
-    upnp_rows(
-        correspondences.len(),
-        |i| {
-            let c = &correspondences[i];
-            (c.p.into(), c.f.into(), c.v.into())
-        },
-        out,
-    )
+/// The training sample of a scene: its canonical rows and canonical quaternion; `None` for a
+/// scene without canonical frames (coincident points, which the sampler does not produce).
+pub fn scene_sample(scene: &UpnpScene) -> Option<Sample> {
+    let frame = UpnpFrame::new(&scene.correspondences)?;
+    let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * scene.correspondences.len()];
+    frame.rows(&scene.correspondences, &mut rows).then_some(())?;
+    let target = frame.encode(&scene.rotation).map(|v| v as f32).to_vec();
+    Some(Sample { rows, target })
 }
 
-/// The training sample of a scene: its rows and its ground-truth quaternion (`w >= 0`).
-pub fn scene_sample(scene: &UpnpScene) -> Result<Sample, RegressorError> {
-    let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * scene.correspondences.len()];
-    correspondence_rows(&scene.correspondences, &mut rows)?;
-    let target = quat_from_rotation(&scene.rotation)
-        .map(|v| v as f32)
-        .to_vec();
-    Ok(Sample { rows, target })
+/// Scene `i` of a stream (module docs): viewer box for even `i`, world box for odd `i`, random
+/// frames.
+pub fn sample_scene<R: Rng + ?Sized>(config: &UpnpSceneConfig, i: usize, rng: &mut R) -> UpnpScene {
+    let layout = if i % 2 == 0 { PointBox::Viewer } else { PointBox::World };
+    config.sample_with(layout, true, rng).expect("valid scene config")
+}
+
+/// Validation scene `i` (its own seed, `first_seed + i`).
+pub fn validation_scene(config: &UpnpSceneConfig, first_seed: u64, i: usize) -> UpnpScene {
+    sample_scene(config, i, &mut ChaCha8Rng::seed_from_u64(first_seed + i as u64))
 }
 
 /// Builds a data set from scenes (all with `scene_config.points` correspondences).
@@ -50,9 +50,10 @@ fn dataset_of(
     count: usize,
     mut scene: impl FnMut(usize) -> UpnpScene,
 ) -> Result<InMemoryDataset, DataError> {
-    InMemoryDataset::from_fn(count, scene_config.points, UPNP_ROW_WIDTH, 4, |i| {
-        // Sampled scenes have unit, finite bearings; a failure here is a sampler bug.
-        scene_sample(&scene(i)).expect("sampled scene gives valid rows")
+    InMemoryDataset::from_fn(count, scene_config.points, UPNP_ROW_WIDTH, UPNP_OUTPUTS, |i| {
+        // Sampled scenes have spread points and unit, finite bearings; a failure here is a
+        // sampler bug.
+        scene_sample(&scene(i)).expect("sampled scene has canonical frames")
     })
 }
 
@@ -63,22 +64,16 @@ pub fn training_dataset(
     seed: u64,
 ) -> Result<InMemoryDataset, DataError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    dataset_of(scene_config, count, |_| {
-        scene_config.sample(&mut rng).expect("valid scene config")
-    })
+    dataset_of(scene_config, count, |i| sample_scene(scene_config, i, &mut rng))
 }
 
-/// `count` validation scenes, scene `i` = `scene_config.sample_seeded(first_seed + i)`.
+/// `count` validation scenes ([`validation_scene`]).
 pub fn validation_dataset(
     scene_config: &UpnpSceneConfig,
     count: usize,
     first_seed: u64,
 ) -> Result<InMemoryDataset, DataError> {
-    dataset_of(scene_config, count, |i| {
-        scene_config
-            .sample_seeded(first_seed + i as u64)
-            .expect("valid scene config")
-    })
+    dataset_of(scene_config, count, |i| validation_scene(scene_config, first_seed, i))
 }
 
 /// Settings of [`train_upnp`]; the default is the configuration of the shipped weights.
@@ -139,8 +134,8 @@ pub fn train_upnp(config: &UpnpTrainConfig) -> Result<UpnpTrained, DataError> {
     })
 }
 
-/// Rotation-error statistics of `predict` (rows -> quaternion `[w, x, y, z]`, normalized here) on `count` scenes
-/// `scene_config.sample_seeded(first_seed + i)`.
+/// Rotation-error statistics of `predict` (canonical rows -> canonical quaternion, decoded
+/// here) on `count` validation scenes ([`validation_scene`]).
 pub fn evaluate_scenes(
     scene_config: &UpnpSceneConfig,
     count: usize,
@@ -149,13 +144,11 @@ pub fn evaluate_scenes(
 ) -> RotationStats {
     let errors: Vec<f64> = (0..count)
         .map(|i| {
-            let scene = scene_config
-                .sample_seeded(first_seed + i as u64)
-                .expect("valid config");
-            let sample = scene_sample(&scene).expect("valid scene");
-            let q = predict(&sample.rows);
-            let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let r = simhc_problems::metrics::rotation_from_quat(q.map(|v| v / n));
+            let scene = validation_scene(scene_config, first_seed, i);
+            let frame = UpnpFrame::new(&scene.correspondences).expect("sampled scene has canonical frames");
+            let sample = scene_sample(&scene).expect("sampled scene has canonical frames");
+            let q = frame.decode(&predict(&sample.rows)).expect("finite prediction");
+            let r = simhc_problems::metrics::rotation_from_quat(q);
             simhc_problems::metrics::rotation_error_deg(&r, &scene.rotation)
         })
         .collect();

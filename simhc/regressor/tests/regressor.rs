@@ -16,9 +16,10 @@ use std::sync::Mutex;
 /// burn's RNG is process-global: seeded initialization must not interleave between tests.
 static SEEDED: Mutex<()> = Mutex::new(());
 
-/// Bound on the median rotation error of the shipped weights on the 200 scenes below
-/// (measured 5.30 deg for the shipped weights; 2,000 validation scenes: 4.95 deg).
-const MEDIAN_BOUND_DEG: f64 = 8.0;
+/// Bound on the median rotation error of the shipped weights on the 200 scenes below, drawn
+/// over all rotations, both point layouts and random frames (2,000 validation scenes of the
+/// training run: median 12.63 deg, 96.9 % under 30 deg).
+const MEDIAN_BOUND_DEG: f64 = 18.0;
 
 fn tiny_config() -> RegressorConfig {
     RegressorConfig::new(9, vec![16, 16, 32, 32], vec![16])
@@ -128,5 +129,5 @@ fn shipped_weights_predict_rotations_on_unseen_scenes() {
     });
     println!("shipped weights on 200 unseen scenes: {stats}");
     assert!(stats.median_deg < MEDIAN_BOUND_DEG, "{stats}");
-    assert!(stats.pct_under_20 > 90.0, "{stats}");
+    assert!(stats.pct_under_30 > 90.0, "{stats}");
 }

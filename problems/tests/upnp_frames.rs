@@ -7,7 +7,10 @@ use simhc_problems::upnp::scene::{random_rotation, PointBox, UpnpScene, UpnpScen
 use simhc_problems::upnp::solver::{UpnpPose, UpnpSolver};
 use rand::SeedableRng;
 
-fn frames(seed: u64) -> ((Matrix3<f64>, Vector3<f64>), (Matrix3<f64>, Vector3<f64>)) {
+/// A rigid frame change `x -> rotation x + translation`.
+type Rigid = (Matrix3<f64>, Vector3<f64>);
+
+fn frames(seed: u64) -> (Rigid, Rigid) {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let w = random_rotation(&mut rng);
     let v = random_rotation(&mut rng);
@@ -17,7 +20,7 @@ fn frames(seed: u64) -> ((Matrix3<f64>, Vector3<f64>), (Matrix3<f64>, Vector3<f6
 }
 
 /// The pose of the original scene mapped into the transformed frames.
-fn mapped(pose: &UpnpPose, world: &(Matrix3<f64>, Vector3<f64>), viewer: &(Matrix3<f64>, Vector3<f64>)) -> (Matrix3<f64>, Vector3<f64>) {
+fn mapped(pose: &UpnpPose, world: &Rigid, viewer: &Rigid) -> Rigid {
     let rw = pose.rotation * world.0.transpose();
     (viewer.0 * rw, viewer.0 * (pose.translation - rw * world.1) + viewer.1)
 }

@@ -35,7 +35,7 @@ pub fn scene_sample(scene: &UpnpScene) -> Option<Sample> {
 /// Scene `i` of a stream (module docs): viewer box for even `i`, world box for odd `i`, random
 /// frames.
 pub fn sample_scene<R: Rng + ?Sized>(config: &UpnpSceneConfig, i: usize, rng: &mut R) -> UpnpScene {
-    let layout = if i % 2 == 0 { PointBox::Viewer } else { PointBox::World };
+    let layout = if i.is_multiple_of(2) { PointBox::Viewer } else { PointBox::World };
     config.sample_with(layout, true, rng).expect("valid scene config")
 }
 

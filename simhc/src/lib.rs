@@ -11,6 +11,7 @@ pub mod all_roots;
 pub mod homotopy;
 pub mod lanes;
 pub mod monodromy;
+pub mod pipeline;
 pub mod problem;
 pub mod ransac;
 pub mod regressor;

@@ -6,8 +6,10 @@
 //! Both views are moved to a canonical frame before the network sees them, with the exact
 //! change of the pose, so that the network never has to learn these nuisances:
 //!
-//! - rotation `Q_k` of view `k` taking the mean bearing of that view to `+z` (the minimal
-//!   rotation; the points are in front of the cameras, so the mean bearing is well defined);
+//! - rotation `Q_k` of view `k` taking the mean bearing of that view to `+z` and the principal
+//!   axis of the bearings' spread about it to `+x` ([`crate::frames::bearing_frame`]; the
+//!   points are in front of the cameras, so the mean bearing is well defined). Both axes move
+//!   with the view, so a rigid change of either view's frame leaves the rows unchanged;
 //! - centring of the ray origins on their mean `m_k` (a translation of the view frame);
 //! - scaling by `1 / k_k`, with `k_k` the RMS distance of the origins to their mean.
 //!
@@ -33,7 +35,8 @@
 //! translation, and the log of the canonical scale. [`GrpsFrame::decode`] maps them back.
 
 use super::scene::GrpsCorrespondence;
-use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+use crate::frames::bearing_frame;
+use nalgebra::{Matrix3, Vector3};
 
 /// Numbers per input row of the GRPS regressor.
 pub const GRPS_ROW_WIDTH: usize = 18;
@@ -58,40 +61,11 @@ pub struct GrpsFrame {
     pub k2: f64,
 }
 
-/// The minimal rotation taking the unit vector `a` to `+z` (about `a x z`); a half turn about
-/// `x` when `a` is (nearly) `-z`.
-fn rotation_to_z(a: &Vector3<f64>) -> Matrix3<f64> {
-    let z = Vector3::z();
-    let c = a.dot(&z);
-    let axis = a.cross(&z);
-    let s = axis.norm();
-    if s < 1e-12 {
-        return if c > 0.0 {
-            Matrix3::identity()
-        } else {
-            Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI).into_inner()
-        };
-    }
-    Rotation3::from_axis_angle(&Unit::new_unchecked(axis / s), s.atan2(c)).into_inner()
-}
-
 fn view_frame<'a>(
-    bearings: impl Iterator<Item = &'a Vector3<f64>>,
+    bearings: impl Iterator<Item = &'a Vector3<f64>> + Clone,
     origins: impl Iterator<Item = &'a Vector3<f64>> + Clone,
 ) -> Option<(Matrix3<f64>, Vector3<f64>, f64)> {
-    let mut mean_f = Vector3::zeros();
-    for f in bearings {
-        let n = f.norm();
-        if !(n > 0.0 && n.is_finite()) {
-            return None;
-        }
-        mean_f += f / n;
-    }
-    let nf = mean_f.norm();
-    if !(nf > 1e-9 && nf.is_finite()) {
-        return None;
-    }
-    let q = rotation_to_z(&(mean_f / nf));
+    let q = bearing_frame(bearings.copied())?;
     let count = origins.clone().count() as f64;
     let m = origins.clone().fold(Vector3::zeros(), |a, v| a + v) / count;
     let k = (origins.map(|v| (v - m).norm_squared()).sum::<f64>() / count).sqrt();
@@ -100,6 +74,16 @@ fn view_frame<'a>(
 }
 
 impl GrpsFrame {
+    /// The frame of data that is already canonical: no rotation, no shift, unit spreads.
+    pub const IDENTITY: GrpsFrame = GrpsFrame {
+        q1: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        m1: Vector3::new(0.0, 0.0, 0.0),
+        k1: 1.0,
+        q2: Matrix3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
+        m2: Vector3::new(0.0, 0.0, 0.0),
+        k2: 1.0,
+    };
+
     /// The canonical frames of `corrs`, or `None` for an empty set, a non-finite value, a zero
     /// bearing, or bearings that cancel out.
     pub fn new(corrs: &[GrpsCorrespondence]) -> Option<Self> {
@@ -133,6 +117,20 @@ impl GrpsFrame {
             }
         }
         true
+    }
+
+    /// The correspondences in the canonical frames (module docs): `f~ = Q1 f`,
+    /// `v~ = Q1 (v - m1) / k1`, and the same for view 2. Bearings keep their length.
+    pub fn canonical(&self, corrs: &[GrpsCorrespondence]) -> Vec<GrpsCorrespondence> {
+        corrs
+            .iter()
+            .map(|c| GrpsCorrespondence {
+                f: self.q1 * c.f,
+                v: self.q1 * (c.v - self.m1) / self.k1,
+                fp: self.q2 * c.fp,
+                vp: self.q2 * (c.vp - self.m2) / self.k2,
+            })
+            .collect()
     }
 
     /// The canonical pose `(R~, t~, s~)` of a pose (module docs).
@@ -229,15 +227,15 @@ mod tests {
             let (rc, tc, sc) = frame.to_canonical(&scene.rotation, &scene.translation, scene.scale);
             let mut rows = vec![0.0f32; GRPS_ROW_WIDTH * 8];
             assert!(frame.rows(&scene.correspondences, &mut rows));
-            for c in &scene.correspondences {
-                let cc = GrpsCorrespondence {
-                    f: frame.q1 * c.f,
-                    v: frame.q1 * (c.v - frame.m1) / frame.k1,
-                    fp: frame.q2 * c.fp,
-                    vp: frame.q2 * (c.vp - frame.m2) / frame.k2,
-                };
-                assert!(grps_residual_direct(&rc, &tc, sc, &cc).abs() < 1e-10);
+            let canonical = frame.canonical(&scene.correspondences);
+            for cc in &canonical {
+                assert!(grps_residual_direct(&rc, &tc, sc, cc).abs() < 1e-10);
             }
+            // Canonical data is its own canonical frame, up to rounding.
+            let again = GrpsFrame::new(&canonical).unwrap();
+            assert!((again.q1 - Matrix3::identity()).amax() < 1e-9 && (again.q2 - Matrix3::identity()).amax() < 1e-9);
+            assert!(again.m1.amax() < 1e-12 && again.m2.amax() < 1e-12);
+            assert!((again.k1 - 1.0).abs() < 1e-12 && (again.k2 - 1.0).abs() < 1e-12);
             let (r, t, s) = frame.from_canonical(&rc, &tc, sc);
             assert!((r - scene.rotation).norm() < 1e-12 && (t - scene.translation).norm() < 1e-10);
             assert!((s - scene.scale).abs() < 1e-12);
@@ -245,6 +243,27 @@ mod tests {
             let (r2, t2, s2) = frame.decode(&target).unwrap();
             assert!(rotation_error_deg(&r2, &scene.rotation) < 1e-6);
             assert!((t2 - scene.translation).norm() < 1e-9 && (s2 - scene.scale).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn rows_do_not_depend_on_the_frames_or_the_units() {
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for seed in 0..20 {
+            let scene = GrpsSceneConfig::default().sample_seeded(seed).unwrap();
+            let moved = scene.random_frames(&mut rng);
+            let rows = |s: &crate::grps::scene::GrpsScene| {
+                let frame = GrpsFrame::new(&s.correspondences).unwrap();
+                let mut out = vec![0.0f32; GRPS_ROW_WIDTH * s.correspondences.len()];
+                assert!(frame.rows(&s.correspondences, &mut out));
+                (out, frame.target(&s.rotation, &s.translation, s.scale))
+            };
+            let ((a, ta), (b, tb)) = (rows(&scene), rows(&moved));
+            let diff = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+            assert!(diff < 1e-4, "seed {seed}: rows differ by {diff}");
+            let tdiff = ta.iter().zip(&tb).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+            assert!(tdiff < 1e-8, "seed {seed}: canonical targets differ by {tdiff:e}");
         }
     }
 

@@ -41,7 +41,7 @@
 //! here.
 
 use crate::upnp::scene::{
-    add_bearing_noise, arr3, check_noise, from_rows3, rows3, sample_euler_rotation, sample_in_box,
+    add_bearing_noise, arr3, random_rotation, check_noise, from_rows3, rows3, sample_euler_rotation, sample_in_box,
     SceneConfigError,
 };
 use nalgebra::{Matrix3, Vector3};
@@ -79,6 +79,43 @@ pub struct GrpsScene {
     pub translation: Vector3<f64>,
     /// Ground-truth scale `s` (metric length of one view-2 unit).
     pub scale: f64,
+}
+
+impl GrpsScene {
+    /// The same scene in other frames: view 1 `f' = V1 f`, `v' = V1 v + t1`; view 2
+    /// `fp' = V2 fp`, `vp' = c V2 vp + t2` (`c` new view-2 units per old one). The ground truth
+    /// changes to match: `R' = V1 R V2^T`, `s' = s / c`, `t' = V1 t + t1 - s' R' t2`.
+    pub fn transformed(
+        &self,
+        view1: (&Matrix3<f64>, &Vector3<f64>),
+        view2: (&Matrix3<f64>, &Vector3<f64>),
+        units2: f64,
+    ) -> GrpsScene {
+        let ((v1, t1), (v2, t2)) = (view1, view2);
+        let rotation = v1 * self.rotation * v2.transpose();
+        let scale = self.scale / units2;
+        GrpsScene {
+            correspondences: self
+                .correspondences
+                .iter()
+                .map(|c| GrpsCorrespondence { f: v1 * c.f, v: v1 * c.v + t1, fp: v2 * c.fp, vp: v2 * c.vp * units2 + t2 })
+                .collect(),
+            rotation,
+            translation: v1 * self.translation + t1 - rotation * t2 * scale,
+            scale,
+        }
+    }
+
+    /// [`GrpsScene::transformed`] with uniformly random rotations `V1`, `V2`, translations
+    /// `t1`, `t2` in `[-10, 10]³` and units `c` log-uniform in `[1/4, 4]`, drawn in that order.
+    pub fn random_frames<R: Rng + ?Sized>(&self, rng: &mut R) -> GrpsScene {
+        let v1 = random_rotation(rng);
+        let t1 = sample_in_box(rng, [-10.0; 3], [10.0; 3]);
+        let v2 = random_rotation(rng);
+        let t2 = sample_in_box(rng, [-10.0; 3], [10.0; 3]);
+        let units = rng.random_range(-4f64.ln()..=4f64.ln()).exp();
+        self.transformed((&v1, &t1), (&v2, &t2), units)
+    }
 }
 
 /// Settings of the GRPS scene sampler; the default is the paper's 8-point noise-free experiment.

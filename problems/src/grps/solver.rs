@@ -6,7 +6,12 @@
 //!
 //! 1. Input checks ([`super::geometry::validate`]): at least 7 correspondences, finite values,
 //!    non-zero bearings, neither view central (scale observable); typed [`GrpsSolveError`].
-//! 2. Regressor ([`GrpsSolver::predict`]): canonical rows ([`super::features`]), the folded
+//! 2. Canonical frames ([`GrpsFrame`]): both views are rotated, centred and scaled by frames
+//!    computed from the data, and everything below runs on the canonical correspondences; the
+//!    pose is mapped back at the end and validated again on the user's data. So the regressor,
+//!    the simulators and the paths see the same numbers in whatever frames and units the data
+//!    came, and success and time do not depend on them (`simhc bench grps --random-frames`).
+//!    Regressor ([`GrpsSolver::predict`]): canonical rows ([`super::features`]), the folded
 //!    network, `(R, t, s)` decoded from the 6D rotation, canonical translation and log scale.
 //! 3. Attempts (start hypothesis x method), in order, until one is accepted:
 //!    the prediction, its rotation with the least-squares `(t, s)`
@@ -261,6 +266,9 @@ pub enum GrpsSolveError {
     /// The regressor's output is not a pose (degenerate 6D rotation or non-finite values).
     #[error("regressor output is not a valid pose")]
     BadPrediction,
+    /// The input has no canonical frame: its values are too large to centre and scale.
+    #[error("the correspondences have no canonical frame (values too large to centre and scale)")]
+    NoCanonicalFrame,
     /// Every attempt failed to track.
     #[error("all {attempts} attempts failed; last: {last}")]
     NoEndPoint {
@@ -409,14 +417,16 @@ impl GrpsSolver {
     /// The regressor's pose for `corrs` (checked input, at least one correspondence).
     pub fn predict(&self, corrs: &[GrpsCorrespondence]) -> Result<GrpsPose, GrpsSolveError> {
         validate(corrs)?;
-        self.predict_unchecked(corrs)
+        let frame = frame_of(corrs)?;
+        Ok(from_canonical(&frame, &self.predict_canonical(&frame.canonical(corrs))?))
     }
 
-    fn predict_unchecked(&self, corrs: &[GrpsCorrespondence]) -> Result<GrpsPose, GrpsSolveError> {
-        let frame = GrpsFrame::new(corrs).ok_or(GrpsSolveError::BadPrediction)?;
-        let mut rows = vec![0.0f32; GRPS_ROW_WIDTH * corrs.len()];
-        if !frame.rows(corrs, &mut rows) {
-            return Err(GrpsSolveError::Input(GrpsError::NonFinite { index: 0 }));
+    /// The regressor's pose for correspondences already in their canonical frames.
+    fn predict_canonical(&self, canonical: &[GrpsCorrespondence]) -> Result<GrpsPose, GrpsSolveError> {
+        let frame = GrpsFrame::IDENTITY;
+        let mut rows = vec![0.0f32; GRPS_ROW_WIDTH * canonical.len()];
+        if !frame.rows(canonical, &mut rows) {
+            return Err(GrpsSolveError::NoCanonicalFrame);
         }
         let mut out = [0.0f64; GRPS_OUTPUTS];
         self.network.forward(&rows, &mut out)?;
@@ -425,12 +435,20 @@ impl GrpsSolver {
     }
 
     /// Solves with the regressor's start and the retries of the options.
+    ///
+    /// Everything after the input checks runs in the canonical frames of the input
+    /// ([`GrpsFrame`]): the regressor, the simulators, the paths and the fallback see the same
+    /// numbers whatever frames and units the user's data came in, so success and time do not
+    /// depend on them. The pose is mapped back, and validated again on the user's data.
     pub fn solve_report(&self, corrs: &[GrpsCorrespondence]) -> Result<GrpsSolveReport, GrpsSolveError> {
         validate(corrs)?;
         let t0 = Instant::now();
-        let prediction = self.predict_unchecked(corrs)?;
+        let frame = frame_of(corrs)?;
+        let canonical = frame.canonical(corrs);
+        let prediction = self.predict_canonical(&canonical)?;
         let mut times = StageTimes { regressor: t0.elapsed(), ..StageTimes::default() };
-        self.run(corrs, Some(prediction), None, &mut times)
+        let result = self.run(&canonical, Some(prediction), None, &mut times);
+        to_user(result, &frame, corrs)
     }
 
     /// Solves from a given start (no regressor; the restarts are built around it). A
@@ -442,7 +460,11 @@ impl GrpsSolver {
             return Err(GrpsSolveError::Input(GrpsError::NonFinite { index: usize::MAX }));
         }
         let mut times = StageTimes::default();
-        self.run(corrs, None, Some(*start), &mut times)
+        let frame = frame_of(corrs)?;
+        let (rotation, translation, scale) = frame.to_canonical(&start.rotation, &start.translation, start.scale);
+        let start = GrpsPose { rotation, translation, scale };
+        let result = self.run(&frame.canonical(corrs), None, Some(start), &mut times);
+        to_user(result, &frame, corrs)
     }
 
     fn run(
@@ -561,7 +583,10 @@ impl GrpsSolver {
     /// [`GrpsSolver::solve_report`] until `max` are found or `max_attempts` are spent.
     pub fn candidates(&self, corrs: &[GrpsCorrespondence], max: usize) -> Result<Vec<GrpsPose>, GrpsSolveError> {
         validate(corrs)?;
-        let base = self.predict_unchecked(corrs)?;
+        let frame = frame_of(corrs)?;
+        let user = corrs;
+        let corrs = &frame.canonical(user)[..];
+        let base = self.predict_canonical(corrs)?;
         let mut times = StageTimes::default();
         let mut swapped = None;
         let mut current: Option<(StartKind, Option<GrpsPose>)> = None;
@@ -581,7 +606,7 @@ impl GrpsSolver {
                 out.push(pose);
             }
         }
-        Ok(out)
+        Ok(out.iter().map(|p| from_canonical(&frame, p)).collect())
     }
 
     /// With more than 8 correspondences: refine on all of them.
@@ -628,8 +653,9 @@ impl GrpsSolver {
             }
             StartKind::Swapped => {
                 let tr = Instant::now();
+                // The swapped canonical views are canonical too.
                 let views = swap_views(corrs);
-                let p = self.predict_unchecked(&views).ok();
+                let p = self.predict_canonical(&views).ok();
                 times.regressor += tr.elapsed();
                 let pose = p.map(|p| {
                     let (rotation, translation, scale) = swap_pose(&p.rotation, &p.translation, p.scale);
@@ -665,6 +691,38 @@ impl GrpsSolver {
         } else {
             attempt_n::<Grps8, 8, 9, 96, 304>(&corrs[..8], start, method, &self.options, Grps8::params, times)
         }
+    }
+}
+
+/// The canonical frames of checked input.
+fn frame_of(corrs: &[GrpsCorrespondence]) -> Result<GrpsFrame, GrpsSolveError> {
+    GrpsFrame::new(corrs).ok_or(GrpsSolveError::NoCanonicalFrame)
+}
+
+/// A canonical pose in the user's frames.
+fn from_canonical(frame: &GrpsFrame, p: &GrpsPose) -> GrpsPose {
+    let (rotation, translation, scale) = frame.from_canonical(&p.rotation, &p.translation, p.scale);
+    GrpsPose { rotation, translation, scale }
+}
+
+/// A canonical report in the user's frames, validated again on the user's correspondences.
+fn to_user_report(mut report: GrpsSolveReport, frame: &GrpsFrame, corrs: &[GrpsCorrespondence]) -> GrpsSolveReport {
+    report.pose = from_canonical(frame, &report.pose);
+    report.prediction = report.prediction.map(|p| from_canonical(frame, &p));
+    report.validation = Validation::of(&report.pose, corrs);
+    report
+}
+
+/// [`to_user_report`] on a result, flagged reports included.
+fn to_user(
+    result: Result<GrpsSolveReport, GrpsSolveError>,
+    frame: &GrpsFrame,
+    corrs: &[GrpsCorrespondence],
+) -> Result<GrpsSolveReport, GrpsSolveError> {
+    match result {
+        Ok(report) => Ok(to_user_report(report, frame, corrs)),
+        Err(GrpsSolveError::NotValidated(report)) => Err(GrpsSolveError::NotValidated(Box::new(to_user_report(*report, frame, corrs)))),
+        Err(e) => Err(e),
     }
 }
 

@@ -26,7 +26,8 @@
 
 use super::scene::UpnpCorrespondence;
 use crate::metrics::{quat_from_rotation, rotation_from_quat};
-use nalgebra::{Matrix2, Matrix3, SymmetricEigen, Vector2, Vector3};
+use crate::frames::{bearing_frame, principal_axes};
+use nalgebra::{Matrix3, Vector3};
 
 /// Numbers per input row of the UPnP regressor.
 pub const UPNP_ROW_WIDTH: usize = 9;
@@ -70,42 +71,7 @@ impl UpnpFrame {
         }
         let world = principal_axes(&cov, corrs.iter().map(|c| c.p - p_mean))?;
 
-        let mut mean_f = Vector3::zeros();
-        for c in corrs {
-            let n = c.f.norm();
-            if !(n > 0.0 && n.is_finite()) {
-                return None;
-            }
-            mean_f += c.f / n;
-        }
-        let z = mean_f.try_normalize(1e-12).unwrap_or_else(Vector3::z);
-        // The spread of the bearings about z, in a basis (a, b) of the plane orthogonal to z.
-        let a = if z.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
-        let a = (a - z * z.dot(&a)).normalize();
-        let b = z.cross(&a);
-        let tangent = |c: &UpnpCorrespondence| {
-            let f = c.f.normalize();
-            Vector2::new(f.dot(&a), f.dot(&b))
-        };
-        let mut cov2 = Matrix2::zeros();
-        let mut mean2 = Vector2::zeros();
-        for c in corrs {
-            mean2 += tangent(c) * inv_n;
-        }
-        for c in corrs {
-            let g = tangent(c) - mean2;
-            cov2 += g * g.transpose();
-        }
-        let eig = SymmetricEigen::new(cov2);
-        let k = if eig.eigenvalues[0] >= eig.eigenvalues[1] { 0 } else { 1 };
-        let mut e = eig.eigenvectors.column(k).into_owned();
-        let third: f64 = corrs.iter().map(|c| (tangent(c) - mean2).dot(&e).powi(3)).sum();
-        if third < 0.0 {
-            e = -e;
-        }
-        let x = a * e.x + b * e.y;
-        let y = z.cross(&x);
-        let viewer = Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]);
+        let viewer = bearing_frame(corrs.iter().map(|c| c.f))?;
         Some(Self { world, p_mean, viewer, v_mean, scale })
     }
 
@@ -144,24 +110,6 @@ impl UpnpFrame {
     pub fn encode(&self, r: &Matrix3<f64>) -> [f64; 4] {
         quat_from_rotation(&(self.viewer * r * self.world.transpose()))
     }
-}
-
-/// Rows = the eigenvectors of the PSD `cov`, largest eigenvalue first, each signed so that the
-/// third moment of `points` along it is positive, the third made right-handed.
-fn principal_axes(cov: &Matrix3<f64>, points: impl Iterator<Item = Vector3<f64>> + Clone) -> Option<Matrix3<f64>> {
-    let eig = SymmetricEigen::new(*cov);
-    let mut order = [0usize, 1, 2];
-    order.sort_by(|&i, &j| eig.eigenvalues[j].total_cmp(&eig.eigenvalues[i]));
-    let mut axes = order.map(|k| eig.eigenvectors.column(k).into_owned());
-    for axis in axes.iter_mut().take(2) {
-        let third: f64 = points.clone().map(|d| d.dot(axis).powi(3)).sum();
-        if third < 0.0 {
-            *axis = -*axis;
-        }
-    }
-    axes[2] = axes[0].cross(&axes[1]);
-    let w = Matrix3::from_rows(&[axes[0].transpose(), axes[1].transpose(), axes[2].transpose()]);
-    w.iter().all(|v| v.is_finite()).then_some(w)
 }
 
 #[cfg(test)]

@@ -28,11 +28,15 @@ use crate::metrics::{quat_from_rotation, rotation_from_quat};
 use crate::start_systems::solve_upnp;
 use nalgebra::{Matrix3, SVector, Vector3};
 use simhc::all_roots::AllRootsOptions;
-use simhc::homotopy::CoefficientLine;
+use simhc::pipeline::{
+    AttemptError, Fallback, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator,
+    TargetParameters, Validator, Verdict,
+};
+use simhc::SimulatorError;
 use super::features::{UpnpFrame, UPNP_OUTPUTS, UPNP_ROW_WIDTH};
 use simhc::regressor::{FoldedNetwork, RegressorError};
-use simhc::tracker::{track, TrackError, TrackStats, TrackerOptions};
-use std::time::{Duration, Instant};
+use simhc::tracker::{TrackError, TrackStats, TrackerOptions};
+use std::time::Instant;
 use thiserror::Error;
 
 /// The shipped UPnP regressor (trained by `simhc train upnp`).
@@ -172,6 +176,12 @@ pub enum SolveError {
     /// The linear start is not available for this input.
     #[error("linear start: {0}")]
     Linear(#[from] LinearStartError),
+    /// The simulator could not build a start problem (a reprojected point on its ray origin).
+    #[error("simulator: {0}")]
+    Simulator(#[from] SimulatorError),
+    /// No start provider had a start.
+    #[error(transparent)]
+    Start(#[from] StartError),
     /// The homotopy path failed; the code says how.
     #[error("tracking failed: {0}")]
     Tracker(#[from] TrackError),
@@ -184,16 +194,7 @@ pub enum SolveError {
     NotValidated(Box<UpnpSolveReport>),
 }
 
-/// Wall time of each stage of one solve (all attempts included).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct StageTimes {
-    /// Start providers: the linear relaxation and the regressor's rows and forward pass.
-    pub start: Duration,
-    /// Cost matrices of the target and of the simulated start problems.
-    pub simulator: Duration,
-    /// Path tracking, validation and the all-roots fallback.
-    pub tracking: Duration,
-}
+pub use simhc::pipeline::StageTimes;
 
 /// A solve with its diagnostics.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -283,102 +284,162 @@ impl UpnpSolver {
         self.run(corrs, &[StartKind::Given], Some(q0), false)
     }
 
+    /// The input checks, then [`simhc::pipeline`] with the UPnP pieces ([`UpnpInstance`]).
     fn run(
         &self,
         corrs: &[UpnpCorrespondence],
-        starts: &[StartKind],
+        kinds: &[StartKind],
         given: Option<[f64; 4]>,
         fallback: bool,
     ) -> Result<UpnpSolveReport, SolveError> {
         let o = &self.options;
-        let mut times = StageTimes::default();
-        let ts = Instant::now();
-        let target = upnp_system(corrs)?;
+        let t0 = Instant::now();
+        let system = upnp_system(corrs)?;
         check_spread(corrs)?;
-        times.simulator += ts.elapsed();
-
-        let mut attempts = 0;
-        let mut best: Option<UpnpSolveReport> = None;
-        let mut last_error: Option<SolveError> = None;
-        for &kind in starts {
-            let t0 = Instant::now();
-            let q0 = match kind {
-                StartKind::Linear => linear_rotation(corrs).map(|r| quat_from_rotation(&r)).map_err(SolveError::from),
-                StartKind::Regressor => self.predict_unchecked(corrs),
-                StartKind::Given => given.ok_or(SolveError::Input(UpnpError::NonFinite { index: usize::MAX })),
+        let checks = t0.elapsed();
+        let instance = UpnpInstance { corrs, system };
+        let given = GivenStart(given.map(SVector::from));
+        let (linear, regressor) = (LinearStart, RegressorStart(self));
+        let starts: Vec<&dyn StartProvider<UpnpInstance, 4>> = kinds
+            .iter()
+            .map(|k| -> &dyn StartProvider<UpnpInstance, 4> {
+                match k {
+                    StartKind::Linear => &linear,
+                    StartKind::Regressor => &regressor,
+                    StartKind::Given => &given,
+                }
+            })
+            .collect();
+        let validator = UpnpValidator { max_angle: o.max_angle, max_behind: o.max_behind };
+        let options = PipelineOptions { tracker: o.tracker, extra_attempts: 0, fallback };
+        let pipeline = Pipeline::<Upnp, _, _, _, _, 4, 5, 66, 35>::new(&TargetOfSystem, &starts, &GeometricSimulator, &validator)
+            .with_fallback(&GlobalMinimum)
+            .with_options(options);
+        let report = |solved: Solved<UpnpValidation, 4>| -> Result<UpnpSolveReport, SolveError> {
+            let q = [solved.x[0], solved.x[1], solved.x[2], solved.x[3]];
+            let pose = UpnpPose::of_quaternion(&instance.system, q).ok_or(TrackError::NonFinite { t: 1.0 })?;
+            let (start_kind, method) = match solved.origin {
+                Origin::Path { provider } => (kinds[provider], Method::SimulatorHc),
+                // The fallback is credited to the first start, as before the pipeline.
+                Origin::Fallback { .. } => (kinds.first().copied().unwrap_or(StartKind::Linear), Method::AllRoots),
             };
-            times.start += t0.elapsed();
-            attempts += 1;
-            let q0 = match q0 {
-                Ok(q0) => q0,
-                Err(e) => {
-                    last_error = Some(e);
-                    continue;
-                }
-            };
-            match self.track_one(&target, corrs, q0, &mut times) {
-                Ok((pose, stats)) => {
-                    let tv = Instant::now();
-                    let validation = UpnpValidation::of(&pose, corrs);
-                    times.tracking += tv.elapsed();
-                    let report = UpnpSolveReport { pose, start: q0, start_kind: kind, method: Method::SimulatorHc, attempts, validation, stats, times };
-                    if validation.passes(o.max_angle, o.max_behind) {
-                        return Ok(report);
-                    }
-                    if best.as_ref().is_none_or(|b| validation.key() < b.validation.key()) {
-                        best = Some(report);
-                    }
-                }
-                Err(e) => last_error = Some(e),
-            }
-        }
-        if fallback {
-            let t = Instant::now();
-            let pose = global_minimum(&target);
-            times.tracking += t.elapsed();
-            attempts += 1;
-            if let Some(pose) = pose {
-                let validation = UpnpValidation::of(&pose, corrs);
-                let start = best.map_or(pose.quaternion, |b| b.start);
-                let start_kind = best.map_or(StartKind::Linear, |b| b.start_kind);
-                let report = UpnpSolveReport { pose, start, start_kind, method: Method::AllRoots, attempts, validation, stats: TrackStats::default(), times };
-                if validation.passes(o.max_angle, o.max_behind) {
-                    return Ok(report);
-                }
-                if best.as_ref().is_none_or(|b| validation.key() < b.validation.key()) {
-                    best = Some(report);
-                }
-            }
-        }
-        match best {
-            Some(mut b) => {
-                b.attempts = attempts;
-                b.times = times;
-                Err(SolveError::NotValidated(Box::new(b)))
-            }
-            None => Err(last_error.unwrap_or(SolveError::Tracker(TrackError::NonFinite { t: 0.0 }))),
+            let mut times = solved.times;
+            times.target += checks;
+            let start = [solved.start[0], solved.start[1], solved.start[2], solved.start[3]];
+            Ok(UpnpSolveReport { pose, start, start_kind, method, attempts: solved.attempts, validation: solved.check, stats: solved.stats, times })
+        };
+        match pipeline.solve(&instance) {
+            Ok(solved) => report(solved),
+            Err(PipelineError::NotValidated(best)) => Err(SolveError::NotValidated(Box::new(report(*best)?))),
+            Err(PipelineError::NoEndPoint { last, .. }) => Err(match last {
+                Some(AttemptError::Start(e)) => SolveError::Start(e),
+                Some(AttemptError::Simulator(e)) => SolveError::Simulator(e),
+                Some(AttemptError::Tracker(e)) => SolveError::Tracker(e),
+                None => SolveError::Tracker(TrackError::NonFinite { t: 0.0 }),
+            }),
+            Err(PipelineError::Input(never)) => match never {},
         }
     }
+}
 
-    /// One path from `q0`: the geometric simulator, then the straight line to the target.
-    fn track_one(
-        &self,
-        target: &UpnpSystem,
-        corrs: &[UpnpCorrespondence],
-        q0: [f64; 4],
-        times: &mut StageTimes,
-    ) -> Result<(UpnpPose, TrackStats), SolveError> {
-        let t0 = Instant::now();
-        let start = simulate(target, corrs, q0)?;
-        times.simulator += t0.elapsed();
-        let t1 = Instant::now();
-        let h = CoefficientLine::<Upnp, f64, 66, 35>::new::<4, 5>(&params_of(&start), &params_of(&target.m));
-        let result = track(&h, &SVector::<f64, 4>::from(q0), &self.options.tracker);
-        times.tracking += t1.elapsed();
-        let result = result?;
-        let pose = UpnpPose::of_quaternion(target, [result.x[0], result.x[1], result.x[2], result.x[3]])
-            .ok_or(TrackError::NonFinite { t: 1.0 })?;
-        Ok((pose, result.stats))
+/// The data of one UPnP solve: the checked correspondences and their cost matrices.
+pub struct UpnpInstance<'a> {
+    /// The correspondences.
+    pub corrs: &'a [UpnpCorrespondence],
+    /// Their cost and translation matrices.
+    pub system: UpnpSystem,
+}
+
+/// The target parameters: the entries of `M`.
+struct TargetOfSystem;
+
+impl TargetParameters<UpnpInstance<'_>, 66> for TargetOfSystem {
+    type Error = std::convert::Infallible;
+    fn params(&self, data: &UpnpInstance<'_>) -> Result<SVector<f64, 66>, Self::Error> {
+        Ok(params_of(&data.system.m))
+    }
+}
+
+/// [`StartKind::Linear`].
+struct LinearStart;
+
+impl StartProvider<UpnpInstance<'_>, 4> for LinearStart {
+    fn name(&self) -> &'static str {
+        "linear"
+    }
+    fn start(&self, data: &UpnpInstance<'_>) -> Result<SVector<f64, 4>, StartError> {
+        let r = linear_rotation(data.corrs).map_err(|e| StartError { provider: "linear", reason: e.to_string() })?;
+        Ok(SVector::from(quat_from_rotation(&r)))
+    }
+}
+
+/// [`StartKind::Regressor`].
+struct RegressorStart<'s>(&'s UpnpSolver);
+
+impl StartProvider<UpnpInstance<'_>, 4> for RegressorStart<'_> {
+    fn name(&self) -> &'static str {
+        "regressor"
+    }
+    fn start(&self, data: &UpnpInstance<'_>) -> Result<SVector<f64, 4>, StartError> {
+        let q = self.0.predict_unchecked(data.corrs).map_err(|e| StartError { provider: "regressor", reason: e.to_string() })?;
+        Ok(SVector::from(q))
+    }
+}
+
+/// [`StartKind::Given`].
+struct GivenStart(Option<SVector<f64, 4>>);
+
+impl StartProvider<UpnpInstance<'_>, 4> for GivenStart {
+    fn name(&self) -> &'static str {
+        "given"
+    }
+    fn start(&self, _data: &UpnpInstance<'_>) -> Result<SVector<f64, 4>, StartError> {
+        self.0.ok_or(StartError { provider: "given", reason: "no start quaternion".into() })
+    }
+}
+
+/// The paper's geometric simulator ([`simulate`]).
+struct GeometricSimulator;
+
+impl StartSimulator<UpnpInstance<'_>, 4, 5, 66> for GeometricSimulator {
+    fn simulate(&self, data: &UpnpInstance<'_>, x0: &SVector<f64, 4>, _p: &SVector<f64, 66>) -> Result<SVector<f64, 66>, SimulatorError> {
+        let m = simulate(&data.system, data.corrs, [x0[0], x0[1], x0[2], x0[3]]).map_err(|_| SimulatorError::Singular)?;
+        Ok(params_of(&m))
+    }
+}
+
+/// [`UpnpValidation`] with the options' thresholds.
+struct UpnpValidator {
+    max_angle: f64,
+    max_behind: usize,
+}
+
+impl Validator<UpnpInstance<'_>, 4> for UpnpValidator {
+    type Check = UpnpValidation;
+    fn check(&self, data: &UpnpInstance<'_>, x: &SVector<f64, 4>) -> UpnpValidation {
+        match UpnpPose::of_quaternion(&data.system, [x[0], x[1], x[2], x[3]]) {
+            Some(pose) => UpnpValidation::of(&pose, data.corrs),
+            None => UpnpValidation { max_angle: f64::INFINITY, behind: data.corrs.len() },
+        }
+    }
+    fn verdict(&self, check: &UpnpValidation) -> Verdict {
+        if check.passes(self.max_angle, self.max_behind) {
+            Verdict::Accept
+        } else {
+            Verdict::Reject
+        }
+    }
+    fn better(&self, a: &UpnpValidation, b: &UpnpValidation) -> bool {
+        a.key() < b.key()
+    }
+}
+
+/// The all-roots fallback: the global minimum of the cost ([`global_minimum`]), one candidate.
+struct GlobalMinimum;
+
+impl Fallback<UpnpInstance<'_>, 4, 66> for GlobalMinimum {
+    fn candidates(&self, data: &UpnpInstance<'_>, _p: &SVector<f64, 66>) -> Vec<SVector<f64, 4>> {
+        global_minimum(&data.system).map(|pose| SVector::from(pose.quaternion)).into_iter().collect()
     }
 }
 

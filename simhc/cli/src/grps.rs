@@ -78,11 +78,18 @@ impl GrpsArgs {
     }
 }
 
-/// Samples `n` seeded noise-free 8-point trials (3 cameras per view).
-pub fn sample_trials(n: usize, seed: u64) -> Result<Vec<GrpsScene>, String> {
+/// Samples `n` seeded noise-free 8-point trials (3 cameras per view), each in random frames
+/// ([`GrpsScene::random_frames`], drawn from the same stream right after its scene) when
+/// `random_frames` is set.
+pub fn sample_trials(n: usize, seed: u64, random_frames: bool) -> Result<Vec<GrpsScene>, String> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let config = GrpsSceneConfig::default();
-    (0..n).map(|_| config.sample(&mut rng).map_err(|e| e.to_string())).collect()
+    (0..n)
+        .map(|_| {
+            let scene = config.sample(&mut rng).map_err(|e| e.to_string())?;
+            Ok(if random_frames { scene.random_frames(&mut rng) } else { scene })
+        })
+        .collect()
 }
 
 fn us(d: std::time::Duration) -> f64 {

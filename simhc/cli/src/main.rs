@@ -64,6 +64,10 @@ enum Command {
         /// Print one JSON object instead of the table.
         #[arg(long)]
         json: bool,
+        /// Move every sampled trial to random frames: random rigid changes of the world and
+        /// viewer frames (UPnP), of both views' frames and of view 2's units in [1/4, 4] (GRPS).
+        #[arg(long)]
+        random_frames: bool,
         /// `bench tracker`: rotation error of the starts in degrees.
         #[arg(long, default_value_t = 20.0)]
         start_angle: f64,
@@ -149,8 +153,8 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
-        Command::Bench { problem: BenchName::Upnp, trials, seed, trials_file, dump_trials, json, upnp: args, .. } => {
-            let options = args.options(trials, seed);
+        Command::Bench { problem: BenchName::Upnp, trials, seed, trials_file, dump_trials, json, random_frames, upnp: args, .. } => {
+            let options = args.options(trials, seed, random_frames);
             let (scenes, source) = match &trials_file {
                 Some(path) => (read_trials(path)?, format!("file {}", path.display())),
                 None => (
@@ -182,10 +186,13 @@ fn run(cli: Cli) -> Result<(), String> {
             }
             Ok(())
         }
-        Command::Bench { problem: BenchName::Grps, trials, seed, trials_file, dump_trials, json, grps: args, .. } => {
+        Command::Bench { problem: BenchName::Grps, trials, seed, trials_file, dump_trials, json, random_frames, grps: args, .. } => {
             let (scenes, source) = match &trials_file {
                 Some(path) => (read_trials(path)?, format!("file {}", path.display())),
-                None => (grps::sample_trials(trials, seed)?, format!("sampled, seed {seed}")),
+                None => (
+                    grps::sample_trials(trials, seed, random_frames)?,
+                    format!("sampled, seed {seed}, random frames {random_frames}"),
+                ),
             };
             if let Some(path) = &dump_trials {
                 let text = serde_json::to_string(&scenes).map_err(|e| e.to_string())?;

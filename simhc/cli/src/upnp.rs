@@ -25,9 +25,6 @@ pub struct UpnpArgs {
     /// distribution) or `world` (the paper's text read literally, as the peers' generators do).
     #[arg(long, value_enum, default_value_t = Layout::Viewer)]
     pub layout: Layout,
-    /// Change the world and viewer frames of every sampled trial by random rigid motions.
-    #[arg(long)]
-    pub random_frames: bool,
     /// Bearing noise in pixels at 800 px focal length.
     #[arg(long, default_value_t = 2.0)]
     pub noise_px: f64,
@@ -44,13 +41,13 @@ pub enum Layout {
 
 impl UpnpArgs {
     /// The benchmark options of these arguments.
-    pub fn options(&self, trials: usize, seed: u64) -> BenchOptions {
+    pub fn options(&self, trials: usize, seed: u64, random_frames: bool) -> BenchOptions {
         let layout = match self.layout {
             Layout::Viewer => PointBox::Viewer,
             Layout::World => PointBox::World,
         };
         let scene = UpnpSceneConfig { noise_px: self.noise_px, ..UpnpSceneConfig::default() };
-        BenchOptions { trials, seed, scene, layout, random_frames: self.random_frames }
+        BenchOptions { trials, seed, scene, layout, random_frames }
     }
 }
 

@@ -20,10 +20,11 @@
 //! order; validation scene `i` is the benchmark's (3 cameras, noise-free, 8 points)
 //! `sample_seeded(valid_first_seed + i)`.
 //!
-//! Shipped weights (the default configuration): 406 s of training on this project's 2-core
-//! machine (4,726 samples/s), bit-identical when rerun; validation (folded network, 2,000
-//! scenes): median rotation error 13.8 deg (34 % under 10 deg, 66 % under 20 deg), translation
-//! 98 %, scale 25 %.
+//! Shipped weights (the default configuration), trained 2026-12-01 after the canonical frames
+//! gained their roll axis: 432 s of training on this project's 2-core machine (4,445
+//! samples/s), bit-identical when rerun; validation (folded network, 2,000 scenes): median
+//! rotation error 12.87 deg (38.1 % under 10 deg, 70.4 % under 20 deg), translation 90.4 %,
+//! scale 23.9 %.
 
 use crate::data::{DataError, InMemoryDataset, Sample};
 use crate::model::{PoseRegressor, RegressorConfig};

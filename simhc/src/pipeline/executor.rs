@@ -1,0 +1,175 @@
+//! The executor: runs the attempts of a [`Pipeline`] in order until one validates.
+
+use super::path::simulator_hc;
+use super::{
+    AttemptError, Fallback, Origin, PipelineError, Solved, StageTimes, StartProvider, StartSimulator, TargetParameters,
+    Validator, Verdict,
+};
+use crate::tracker::{TrackStats, TrackerOptions};
+use crate::CoefficientForm;
+use std::marker::PhantomData;
+use std::time::Instant;
+
+/// Settings of the executor, apart from the problem's pieces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PipelineOptions {
+    /// Tracker settings of every path. Default: [`TrackerOptions::single_path`].
+    pub tracker: TrackerOptions,
+    /// After the first plausible end point ([`Verdict::Plausible`]), this many more attempts,
+    /// then the best plausible one. Default `0`.
+    pub extra_attempts: usize,
+    /// Whether to ask the [`Fallback`] when no path validated. Default `true`.
+    pub fallback: bool,
+}
+
+impl Default for PipelineOptions {
+    fn default() -> Self {
+        Self { tracker: TrackerOptions::single_path(), extra_attempts: 0, fallback: true }
+    }
+}
+
+/// A problem's pieces and the executor's settings. `P` is the compiled system
+/// (`#[simhc_problem]`), `D` the user's data.
+pub struct Pipeline<'a, P, D: ?Sized, T, S: ?Sized, V, const NX: usize, const NF: usize, const NP: usize, const NC: usize> {
+    /// Target parameters of the data.
+    pub target: &'a T,
+    /// Start providers, tried in this order.
+    pub starts: &'a [&'a dyn StartProvider<D, NX>],
+    /// The online simulator.
+    pub simulator: &'a S,
+    /// The validation of end points.
+    pub validator: &'a V,
+    /// Candidates when no path validated.
+    pub fallback: Option<&'a dyn Fallback<D, NX, NP>>,
+    /// Executor settings.
+    pub options: PipelineOptions,
+    problem: PhantomData<fn() -> P>,
+}
+
+type Outcome<T, V, D, const NX: usize, const NP: usize> = Result<
+    Solved<<V as Validator<D, NX>>::Check, NX>,
+    PipelineError<<T as TargetParameters<D, NP>>::Error, <V as Validator<D, NX>>::Check, NX>,
+>;
+
+impl<'a, P, D, T, S, V, const NX: usize, const NF: usize, const NP: usize, const NC: usize> Pipeline<'a, P, D, T, S, V, NX, NF, NP, NC>
+where
+    P: CoefficientForm<NX, NF, NP, NC>,
+    D: ?Sized,
+    T: TargetParameters<D, NP>,
+    S: StartSimulator<D, NX, NF, NP> + ?Sized,
+    V: Validator<D, NX>,
+{
+    /// The pipeline of these pieces with default options and no fallback.
+    pub fn new(target: &'a T, starts: &'a [&'a dyn StartProvider<D, NX>], simulator: &'a S, validator: &'a V) -> Self {
+        Self { target, starts, simulator, validator, fallback: None, options: PipelineOptions::default(), problem: PhantomData }
+    }
+
+    /// The same pipeline with a fallback.
+    pub fn with_fallback(mut self, fallback: &'a dyn Fallback<D, NX, NP>) -> Self {
+        self.fallback = Some(fallback);
+        self
+    }
+
+    /// The same pipeline with other options.
+    pub fn with_options(mut self, options: PipelineOptions) -> Self {
+        self.options = options;
+        self
+    }
+
+    /// Solves `data` with the pipeline's starts and, if nothing validated, its fallback.
+    pub fn solve(&self, data: &D) -> Outcome<T, V, D, NX, NP> {
+        self.run(data, self.starts, self.options.fallback)
+    }
+
+    /// Solves `data` with other start providers (a caller's guess, an ablation), in order.
+    pub fn solve_with(&self, data: &D, starts: &[&dyn StartProvider<D, NX>], fallback: bool) -> Outcome<T, V, D, NX, NP> {
+        self.run(data, starts, fallback)
+    }
+
+    fn run(&self, data: &D, starts: &[&dyn StartProvider<D, NX>], fallback: bool) -> Outcome<T, V, D, NX, NP> {
+        let o = &self.options;
+        let mut times = StageTimes::default();
+        let t0 = Instant::now();
+        let p = self.target.params(data).map_err(PipelineError::Input);
+        times.target += t0.elapsed();
+        let p = p?;
+
+        let mut attempts = 0;
+        let mut deadline = usize::MAX;
+        let mut best: Option<Solved<V::Check, NX>> = None;
+        let mut plausible: Option<Solved<V::Check, NX>> = None;
+        let mut last = None;
+        for (provider, start) in starts.iter().enumerate() {
+            if attempts >= deadline {
+                break;
+            }
+            attempts += 1;
+            let ts = Instant::now();
+            let x0 = start.start(data);
+            times.start += ts.elapsed();
+            let attempt = x0
+                .map_err(AttemptError::from)
+                .and_then(|x0| simulator_hc::<P, D, S, NX, NF, NP, NC>(data, self.simulator, &x0, &p, &o.tracker, &mut times).map(|r| (x0, r)));
+            let (x0, (x, stats)) = match attempt {
+                Ok(r) => r,
+                Err(e) => {
+                    last = Some(e);
+                    continue;
+                }
+            };
+            let tv = Instant::now();
+            let check = self.validator.check(data, &x);
+            times.tracking += tv.elapsed();
+            let solved = Solved { x, start: x0, origin: Origin::Path { provider }, attempts, check, stats, times };
+            match self.validator.verdict(&check) {
+                Verdict::Accept => return Ok(solved),
+                Verdict::Plausible => {
+                    if plausible.as_ref().is_none_or(|b| self.validator.better(&check, &b.check)) {
+                        plausible = Some(solved);
+                    }
+                    deadline = deadline.min(attempts + o.extra_attempts);
+                }
+                Verdict::Reject => {}
+            }
+            if best.as_ref().is_none_or(|b| self.validator.better(&check, &b.check)) {
+                best = Some(solved);
+            }
+        }
+        if let Some(mut p) = plausible {
+            p.attempts = attempts;
+            p.times = times;
+            return Ok(p);
+        }
+        if let (true, Some(fb)) = (fallback, self.fallback) {
+            let tf = Instant::now();
+            let candidates = fb.candidates(data, &p);
+            attempts += 1;
+            let mut best_fallback: Option<Solved<V::Check, NX>> = None;
+            for (candidate, x) in candidates.into_iter().enumerate() {
+                let check = self.validator.check(data, &x);
+                let solved = Solved { x, start: x, origin: Origin::Fallback { candidate }, attempts, check, stats: TrackStats::default(), times };
+                if best_fallback.as_ref().is_none_or(|b| self.validator.better(&check, &b.check)) {
+                    best_fallback = Some(solved);
+                }
+            }
+            times.fallback += tf.elapsed();
+            if let Some(mut b) = best_fallback {
+                b.times = times;
+                if self.validator.verdict(&b.check) != Verdict::Reject {
+                    return Ok(b);
+                }
+                if best.as_ref().is_none_or(|a| self.validator.better(&b.check, &a.check)) {
+                    best = Some(b);
+                }
+            }
+        }
+        match best {
+            Some(mut b) => {
+                b.attempts = attempts;
+                b.times = times;
+                Err(PipelineError::NotValidated(Box::new(b)))
+            }
+            None => Err(PipelineError::NoEndPoint { attempts, last }),
+        }
+    }
+}

@@ -1,0 +1,190 @@
+//! The Simulator HC pipeline, written once for every problem: start -> online simulator ->
+//! one homotopy path -> validation -> next start -> all-roots fallback, with a typed result
+//! that says which attempt produced the solution, what each stage cost, and whether it was
+//! validated. A problem plugs in through small traits, one capability each (argmin's style):
+//!
+//! - [`StartProvider`]: a rough solution `x0` (a regressor, a closed-form relaxation, a
+//!   caller's guess); the pipeline tries the providers in order;
+//! - [`TargetParameters`]: the parameters `p` of the user's data;
+//! - [`StartSimulator`]: start parameters `p0` that `x0` solves exactly. Every
+//!   [`crate::OnlineSimulator`] is one (it ignores the data) through [`Generic`]; a
+//!   problem whose simulator needs the raw data (reprojection) implements it directly;
+//! - [`Validator`]: does an end point explain *all* the data (residual on redundant rows,
+//!   inequalities such as positive depth)? Accept, keep as plausible, or reject;
+//! - [`Fallback`] (optional): candidate solutions from all roots, validated like any end
+//!   point.
+//!
+//! [`Pipeline::solve`] (in [`executor`]) drives them. The path of one attempt is
+//! [`path::simulator_hc`]. Nothing is returned as `Ok` unless it validated; otherwise the
+//! best end point comes back inside [`PipelineError::NotValidated`], flagged.
+
+pub mod executor;
+pub mod path;
+
+use nalgebra::SVector;
+use std::fmt::Debug;
+use std::time::Duration;
+use thiserror::Error;
+
+pub use executor::{Pipeline, PipelineOptions};
+
+use crate::tracker::{TrackError, TrackStats};
+use crate::SimulatorError;
+
+/// Why a start provider has no start for this data.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("{provider}: {reason}")]
+pub struct StartError {
+    /// The provider's name.
+    pub provider: &'static str,
+    /// What went wrong, for the user.
+    pub reason: String,
+}
+
+/// A rough solution `x0` of the data (stage 1 of the paper).
+pub trait StartProvider<D: ?Sized, const NX: usize> {
+    /// A short name for reports (`"linear"`, `"regressor"`).
+    fn name(&self) -> &'static str;
+    /// The start, or why there is none.
+    fn start(&self, data: &D) -> Result<SVector<f64, NX>, StartError>;
+}
+
+/// The target parameters `p` of the data.
+pub trait TargetParameters<D: ?Sized, const NP: usize> {
+    /// The problem's error for bad input.
+    type Error: std::error::Error + Clone + PartialEq;
+    /// `p`, or why the data is not a problem instance (wrong length, degenerate geometry).
+    fn params(&self, data: &D) -> Result<SVector<f64, NP>, Self::Error>;
+}
+
+/// Start parameters `p0` with `F(x0; p0) = 0` near the target `p` (stage 2 of the paper).
+pub trait StartSimulator<D: ?Sized, const NX: usize, const NF: usize, const NP: usize> {
+    /// `p0` for the start `x0`, the data and its target parameters `p`.
+    fn simulate(&self, data: &D, x0: &SVector<f64, NX>, p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, SimulatorError>;
+}
+
+/// Any [`crate::OnlineSimulator`] as a [`StartSimulator`] that ignores the data.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Generic<S>(pub S);
+
+impl<D: ?Sized, S, const NX: usize, const NF: usize, const NP: usize> StartSimulator<D, NX, NF, NP> for Generic<S>
+where
+    S: crate::OnlineSimulator<NX, NF, NP>,
+{
+    fn simulate(&self, _data: &D, x0: &SVector<f64, NX>, p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, SimulatorError> {
+        self.0.simulate(x0, p)
+    }
+}
+
+/// What the validator says of an end point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// A solution: return it at once.
+    Accept,
+    /// Explains the data within the noise, but so might a better one: keep it, try up to
+    /// [`PipelineOptions::extra_attempts`] more, return the best plausible one.
+    Plausible,
+    /// Not a solution of the data.
+    Reject,
+}
+
+/// Does an end point explain all the data?
+pub trait Validator<D: ?Sized, const NX: usize> {
+    /// The figures of one check (residuals, violated inequalities).
+    type Check: Copy + Debug + PartialEq;
+    /// Checks `x` on `data`.
+    fn check(&self, data: &D, x: &SVector<f64, NX>) -> Self::Check;
+    /// The verdict of a check.
+    fn verdict(&self, check: &Self::Check) -> Verdict;
+    /// Whether `a` explains the data better than `b` (ranks plausible and rejected end points).
+    fn better(&self, a: &Self::Check, b: &Self::Check) -> bool;
+}
+
+/// Candidate solutions when no path validated, typically all real roots of a start system.
+pub trait Fallback<D: ?Sized, const NX: usize, const NP: usize> {
+    /// The candidates for `data` with target parameters `p`.
+    fn candidates(&self, data: &D, p: &SVector<f64, NP>) -> Vec<SVector<f64, NX>>;
+}
+
+/// Wall time of each stage of one solve, all attempts included.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StageTimes {
+    /// Target parameters.
+    pub target: Duration,
+    /// Start providers.
+    pub start: Duration,
+    /// Online simulators.
+    pub simulator: Duration,
+    /// Path tracking and validation.
+    pub tracking: Duration,
+    /// The fallback, its validation included.
+    pub fallback: Duration,
+}
+
+/// What produced a solution.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Origin {
+    /// One Simulator HC path from start provider number `provider` (in the pipeline's order).
+    Path {
+        /// Index of the start provider.
+        provider: usize,
+    },
+    /// Candidate number `candidate` of the fallback.
+    Fallback {
+        /// Index among the fallback's candidates.
+        candidate: usize,
+    },
+}
+
+/// A solution with its diagnostics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solved<C, const NX: usize> {
+    /// The unknowns.
+    pub x: SVector<f64, NX>,
+    /// The start of the path that produced `x` (`x` itself for the fallback).
+    pub start: SVector<f64, NX>,
+    /// What produced `x`.
+    pub origin: Origin,
+    /// Attempts made, the fallback counted as one.
+    pub attempts: usize,
+    /// The validation of `x`.
+    pub check: C,
+    /// Work of the path that produced `x` (zero for the fallback).
+    pub stats: TrackStats,
+    /// Stage times.
+    pub times: StageTimes,
+}
+
+/// Why one attempt produced no end point.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum AttemptError {
+    /// The start provider had no start.
+    #[error(transparent)]
+    Start(#[from] StartError),
+    /// The simulator failed.
+    #[error("simulator: {0}")]
+    Simulator(#[from] SimulatorError),
+    /// The path failed.
+    #[error("tracker: {0}")]
+    Tracker(#[from] TrackError),
+}
+
+/// Why a solve returned no validated solution.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum PipelineError<E: std::error::Error, C: Debug, const NX: usize> {
+    /// The data is not a problem instance.
+    #[error("input: {0}")]
+    Input(E),
+    /// No attempt produced an end point (and the fallback had no candidate).
+    #[error("no end point after {attempts} attempts; last: {last:?}")]
+    NoEndPoint {
+        /// Attempts made.
+        attempts: usize,
+        /// The last attempt's error, if any attempt ran.
+        last: Option<AttemptError>,
+    },
+    /// End points were found but none validated: the best one, flagged. Do not use it as a
+    /// solution.
+    #[error("no end point validated after {} attempts (best: {:?})", .0.attempts, .0.check)]
+    NotValidated(Box<Solved<C, NX>>),
+}

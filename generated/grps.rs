@@ -1654,6 +1654,52 @@ pub mod grps {
             "row6.vp[2]",
         ];
     }
+    impl ::simhc::ProblemLayout for Grps7 {
+        const LAYOUT: ::simhc::Layout = ::simhc::Layout {
+            unknowns: &[
+                ::simhc::FieldLayout {
+                    name: "q",
+                    kind: ::simhc::FieldKind::Quat,
+                    offset: 0,
+                },
+                ::simhc::FieldLayout {
+                    name: "t",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 4,
+                },
+                ::simhc::FieldLayout {
+                    name: "s",
+                    kind: ::simhc::FieldKind::Scalar,
+                    offset: 7,
+                },
+            ],
+            row: &[
+                ::simhc::FieldLayout {
+                    name: "f",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 0,
+                },
+                ::simhc::FieldLayout {
+                    name: "v",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 3,
+                },
+                ::simhc::FieldLayout {
+                    name: "fp",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 6,
+                },
+                ::simhc::FieldLayout {
+                    name: "vp",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 9,
+                },
+            ],
+            globals: &[],
+            rows: 7,
+            per_row: 12,
+        };
+    }
     #[allow(clippy::all, unused_variables)]
     impl ::simhc::Problem<8, 8, 84> for Grps7 {
         #[inline]
@@ -9914,6 +9960,52 @@ pub mod grps {
             "row7.vp[1]",
             "row7.vp[2]",
         ];
+    }
+    impl ::simhc::ProblemLayout for Grps8 {
+        const LAYOUT: ::simhc::Layout = ::simhc::Layout {
+            unknowns: &[
+                ::simhc::FieldLayout {
+                    name: "q",
+                    kind: ::simhc::FieldKind::Quat,
+                    offset: 0,
+                },
+                ::simhc::FieldLayout {
+                    name: "t",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 4,
+                },
+                ::simhc::FieldLayout {
+                    name: "s",
+                    kind: ::simhc::FieldKind::Scalar,
+                    offset: 7,
+                },
+            ],
+            row: &[
+                ::simhc::FieldLayout {
+                    name: "f",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 0,
+                },
+                ::simhc::FieldLayout {
+                    name: "v",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 3,
+                },
+                ::simhc::FieldLayout {
+                    name: "fp",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 6,
+                },
+                ::simhc::FieldLayout {
+                    name: "vp",
+                    kind: ::simhc::FieldKind::Vector(3),
+                    offset: 9,
+                },
+            ],
+            globals: &[],
+            rows: 8,
+            per_row: 12,
+        };
     }
     #[allow(clippy::all, unused_variables)]
     impl ::simhc::Problem<8, 9, 96> for Grps8 {

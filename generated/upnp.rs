@@ -340,6 +340,27 @@ pub mod upnp {
             "m[10][10]",
         ];
     }
+    impl ::simhc::ProblemLayout for Upnp {
+        const LAYOUT: ::simhc::Layout = ::simhc::Layout {
+            unknowns: &[
+                ::simhc::FieldLayout {
+                    name: "q",
+                    kind: ::simhc::FieldKind::Quat,
+                    offset: 0,
+                },
+            ],
+            row: &[],
+            globals: &[
+                ::simhc::FieldLayout {
+                    name: "m",
+                    kind: ::simhc::FieldKind::Sym(11),
+                    offset: 0,
+                },
+            ],
+            rows: 0,
+            per_row: 0,
+        };
+    }
     #[allow(clippy::all, unused_variables)]
     impl ::simhc::Problem<4, 5, 66> for Upnp {
         #[inline]

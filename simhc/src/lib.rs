@@ -10,6 +10,7 @@
 pub mod all_roots;
 pub mod homotopy;
 pub mod lanes;
+pub mod layout;
 pub mod monodromy;
 pub mod pipeline;
 pub mod problem;
@@ -19,6 +20,7 @@ pub mod scalar;
 pub mod simulator;
 pub mod tracker;
 
+pub use layout::{FieldKind, FieldLayout, Layout, ProblemLayout};
 pub use problem::{CoefficientForm, ParamDerivative, ParamRowLayout, Problem, ProblemInfo};
 pub use scalar::Scalar;
 pub use simhc_macros::simhc_problem;

@@ -1311,6 +1311,9 @@ fn instance(decl: &Declaration, inst: &Instance) -> (TokenStream, Vec<TokenStrea
             }
         }
     };
+    let layout_unknowns = field_layouts(&decl.unknowns);
+    let layout_row = field_layouts(&decl.row_fields);
+    let layout_globals = field_layouts(&decl.globals);
     let tokens = quote! {
         #[doc = #doc]
         #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -1345,6 +1348,16 @@ fn instance(decl: &Declaration, inst: &Instance) -> (TokenStream, Vec<TokenStrea
             const NAME: &'static str = #problem_name;
             const UNKNOWN_NAMES: &'static [&'static str] = &[#(#unknown_names),*];
             const PARAM_NAMES: &'static [&'static str] = &[#(#param_names),*];
+        }
+
+        impl ::simhc::ProblemLayout for #type_name {
+            const LAYOUT: ::simhc::Layout = ::simhc::Layout {
+                unknowns: &[#(#layout_unknowns),*],
+                row: &[#(#layout_row),*],
+                globals: &[#(#layout_globals),*],
+                rows: #n_rows,
+                per_row: #row_len,
+            };
         }
 
         #[allow(clippy::all, unused_variables)]
@@ -1511,4 +1524,34 @@ fn render_body(r: Renderer<'_>, outputs: &[(TokenStream, &Vec<(TokenStream, Node
     let body = r.body(&ids);
     let assigns = outputs.iter().map(|(target, entries)| assign_dense(&r, target.clone(), entries));
     quote!(#body #(#assigns)*)
+}
+
+/// `::simhc::FieldLayout` literals of `fields`, offsets counted from the first.
+fn field_layouts(fields: &[Field]) -> Vec<TokenStream> {
+    let mut offset = 0usize;
+    fields
+        .iter()
+        .map(|f| {
+            let name = f.ident.to_string();
+            let kind = match f.shape {
+                Shape::Scalar => quote!(::simhc::FieldKind::Scalar),
+                Shape::Vector(k) => {
+                    let k = n(k);
+                    quote!(::simhc::FieldKind::Vector(#k))
+                }
+                Shape::Quat => quote!(::simhc::FieldKind::Quat),
+                Shape::Matrix(r, c) => {
+                    let (r, c) = (n(r), n(c));
+                    quote!(::simhc::FieldKind::Matrix(#r, #c))
+                }
+                Shape::Sym(k) => {
+                    let k = n(k);
+                    quote!(::simhc::FieldKind::Sym(#k))
+                }
+            };
+            let at = n(offset);
+            offset += f.shape.scalar_count();
+            quote!(::simhc::FieldLayout { name: #name, kind: #kind, offset: #at })
+        })
+        .collect()
 }

@@ -92,3 +92,39 @@ fn prettyplease_unparse(file: &syn::File) -> String {
 fn solvergen_unparse(file: &syn::File) -> String {
     solvergen::format_file(file)
 }
+
+/// The layout metadata (`ProblemLayout`) of a declaration with every kind of field, rows and
+/// globals, snapshotted on its own (generic code such as the learned start reads it).
+#[test]
+fn layout_metadata_of_every_kind() {
+    let source = r#"
+        #[simhc::simhc_problem]
+        mod every_kind {
+            pub struct Unknowns { q: Quat, t: Vec3, s: Scalar, w: Vector<2> }
+            pub struct Row { f: Vec3, g: Quat, h: Scalar }
+            pub struct Globals { k: Mat3, m: Sym<3>, c: Scalar }
+            pub const ROWS: [usize; 2] = [3, 4];
+            pub fn row_equations() -> Vec3 {
+                f.cross(s * (rotation(q) * t) + k * t) + c * f + h * g.dot(q) * t
+            }
+            pub fn global_equations() -> [Scalar; 4] {
+                [q.dot(q) - 1, t.dot(m * t) - 1, w[0] - s, w[1] + s]
+            }
+        }
+    "#;
+    let text = solvergen::generate_file(source).unwrap_or_else(|e| panic!("{e}"));
+    let file = syn::parse_file(&text).expect("generated code parses");
+    let mut layouts = Vec::new();
+    for item in &file.items {
+        let syn::Item::Mod(m) = item else { continue };
+        for it in m.content.iter().flat_map(|(_, items)| items) {
+            let syn::Item::Impl(imp) = it else { continue };
+            if imp.trait_.as_ref().is_some_and(|(_, p, _)| p.segments.last().is_some_and(|s| s.ident == "ProblemLayout")) {
+                layouts.push(syn::Item::Impl(imp.clone()));
+            }
+        }
+    }
+    assert_eq!(layouts.len(), 2, "one layout per instance (3 and 4 rows)");
+    let file = syn::File { shebang: None, attrs: vec![], items: layouts };
+    insta::assert_snapshot!("layout_every_kind", prettyplease_unparse(&file));
+}

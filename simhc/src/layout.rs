@@ -1,0 +1,102 @@
+//! What the unknowns and parameters of a compiled problem are: names, kinds and where they
+//! sit in the vectors. `#[simhc_problem]` emits a [`ProblemLayout`] for each instance, so
+//! generic code (the learned start, input readers, reports) can treat a quaternion as a
+//! quaternion without knowing the problem.
+
+/// The kind of a declared symbol.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FieldKind {
+    /// One scalar.
+    Scalar,
+    /// A vector of the given length.
+    Vector(usize),
+    /// A quaternion `[w, x, y, z]`: `rotation(q)` of a unit `q`. Unknown quaternions carry the
+    /// sign symmetry `q -> -q` and, with the `q.q - 1` equation, unit norm.
+    Quat,
+    /// A general `rows x cols` matrix, row-major.
+    Matrix(usize, usize),
+    /// A symmetric `n x n` matrix: only the upper triangle, row-major, is stored.
+    Sym(usize),
+}
+
+impl FieldKind {
+    /// Scalars the field occupies.
+    pub const fn len(self) -> usize {
+        match self {
+            FieldKind::Scalar => 1,
+            FieldKind::Vector(n) => n,
+            FieldKind::Quat => 4,
+            FieldKind::Matrix(r, c) => r * c,
+            FieldKind::Sym(n) => n * (n + 1) / 2,
+        }
+    }
+
+    /// Whether the field is empty (never, for a declared field).
+    pub const fn is_empty(self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// One declared symbol and where it sits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FieldLayout {
+    /// Its name in the declaration.
+    pub name: &'static str,
+    /// Its kind.
+    pub kind: FieldKind,
+    /// Offset of its first scalar: in the unknown vector (unknowns), within one row's block
+    /// (row fields), or from the start of the globals block (globals).
+    pub offset: usize,
+}
+
+/// The layout of one problem instance's vectors.
+///
+/// Unknowns `x`: the fields in declaration order. Parameters `p`: `rows` blocks of
+/// `per_row` scalars (row `r`'s field `f` at `r * per_row + f.offset`), then the globals (field
+/// `g` at `rows * per_row + g.offset`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Layout {
+    /// The unknowns.
+    pub unknowns: &'static [FieldLayout],
+    /// The fields of one row.
+    pub row: &'static [FieldLayout],
+    /// The global parameters.
+    pub globals: &'static [FieldLayout],
+    /// Rows of this instance.
+    pub rows: usize,
+    /// Scalars per row.
+    pub per_row: usize,
+}
+
+impl Layout {
+    /// Scalars in the unknown vector.
+    pub fn unknown_len(&self) -> usize {
+        self.unknowns.iter().map(|f| f.kind.len()).sum()
+    }
+
+    /// Scalars in the globals block.
+    pub fn globals_len(&self) -> usize {
+        self.globals.iter().map(|f| f.kind.len()).sum()
+    }
+
+    /// Scalars in the parameter vector.
+    pub fn param_len(&self) -> usize {
+        self.rows * self.per_row + self.globals_len()
+    }
+
+    /// The parameters of row `r` (`None` past the last row or for a short `p`).
+    pub fn row_params<'p>(&self, p: &'p [f64], r: usize) -> Option<&'p [f64]> {
+        (r < self.rows).then(|| p.get(r * self.per_row..(r + 1) * self.per_row)).flatten()
+    }
+
+    /// The global parameters (`None` for a short `p`).
+    pub fn global_params<'p>(&self, p: &'p [f64]) -> Option<&'p [f64]> {
+        p.get(self.rows * self.per_row..self.param_len())
+    }
+}
+
+/// The layout of a compiled problem instance (emitted by `#[simhc_problem]`).
+pub trait ProblemLayout {
+    /// Its layout.
+    const LAYOUT: Layout;
+}

@@ -15,6 +15,7 @@
 //! `cargo run --release -p simhc-regressor --example train_upnp`.
 
 pub mod data;
+pub mod generic;
 pub mod grps;
 pub mod inference;
 pub mod model;

@@ -19,6 +19,7 @@
 //! best end point comes back inside [`PipelineError::NotValidated`], flagged.
 
 pub mod executor;
+pub mod learned;
 pub mod path;
 
 use nalgebra::SVector;

@@ -1,0 +1,156 @@
+//! The generic learned start: a [`FoldedNetwork`] that reads a declared problem's parameters
+//! through its [`Layout`] and predicts its unknowns. Trained by `simhc_regressor::generic`
+//! from any scene sampler; the input and output standardizations are folded into the first and
+//! last layers, so the weights file is the whole model.
+//!
+//! Rows: one per declared row, `[row parameters, global parameters]`
+//! ([`layout_row_width`] numbers); a problem without rows has one row of its globals. Outputs:
+//! the unknown vector in layout order; a [`FieldKind::Quat`] unknown is normalized here (its
+//! loss was sign-invariant), the others come out in their own units.
+
+use super::{StartError, StartProvider};
+use crate::layout::{FieldKind, Layout};
+use crate::regressor::{FoldedNetwork, RegressorError};
+use nalgebra::SVector;
+
+/// Numbers per network input row for `layout`.
+pub fn layout_row_width(layout: &Layout) -> usize {
+    layout.per_row + layout.globals_len()
+}
+
+/// Rows of the network input for `layout`.
+pub fn layout_row_count(layout: &Layout) -> usize {
+    layout.rows.max(1)
+}
+
+/// Writes the network input of parameters `p` (module docs) into `out`
+/// (`layout_row_count * layout_row_width` numbers); `false` for wrong lengths or non-finite
+/// values.
+pub fn layout_rows(layout: &Layout, p: &[f64], out: &mut [f32]) -> bool {
+    let width = layout_row_width(layout);
+    if p.len() != layout.param_len() || out.len() != layout_row_count(layout) * width {
+        return false;
+    }
+    let Some(globals) = layout.global_params(p) else { return false };
+    for (r, row) in out.chunks_exact_mut(width).enumerate() {
+        let own = layout.row_params(p, r).unwrap_or(&[]);
+        for (o, v) in row.iter_mut().zip(own.iter().chain(globals)) {
+            *o = *v as f32;
+        }
+    }
+    out.iter().all(|v| v.is_finite())
+}
+
+/// Normalizes every quaternion unknown of `x` in place; `false` if one is zero or not finite.
+pub fn normalize_quaternions(layout: &Layout, x: &mut [f64]) -> bool {
+    for f in layout.unknowns.iter().filter(|f| f.kind == FieldKind::Quat) {
+        let q = &mut x[f.offset..f.offset + 4];
+        let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if !(n > 0.0 && n.is_finite()) {
+            return false;
+        }
+        q.iter_mut().for_each(|v| *v /= n);
+    }
+    x.iter().all(|v| v.is_finite())
+}
+
+/// A learned start for a declared problem whose pipeline data is its parameter vector.
+#[derive(Debug, Clone)]
+pub struct LearnedStart {
+    network: FoldedNetwork,
+    layout: Layout,
+}
+
+impl LearnedStart {
+    /// The start of a trained `network` for a problem of this `layout`; checks the widths.
+    pub fn new(network: FoldedNetwork, layout: Layout) -> Result<Self, RegressorError> {
+        if network.input_width() != layout_row_width(&layout) {
+            return Err(RegressorError::Format("network input width differs from the layout's row width"));
+        }
+        if network.output_width() != layout.unknown_len() {
+            return Err(RegressorError::Format("network output width differs from the number of unknowns"));
+        }
+        if network.normalizes_output() {
+            return Err(RegressorError::Format("a generic learned start decodes its own outputs"));
+        }
+        Ok(Self { network, layout })
+    }
+
+    /// The network.
+    pub fn network(&self) -> &FoldedNetwork {
+        &self.network
+    }
+
+    /// The predicted unknowns for parameters `p`, quaternions normalized.
+    pub fn predict(&self, p: &[f64], x: &mut [f64]) -> Result<(), RegressorError> {
+        let mut rows = vec![0.0f32; layout_row_count(&self.layout) * layout_row_width(&self.layout)];
+        if !layout_rows(&self.layout, p, &mut rows) {
+            return Err(RegressorError::NonFinite);
+        }
+        self.network.forward(&rows, x)?;
+        if normalize_quaternions(&self.layout, x) {
+            Ok(())
+        } else {
+            Err(RegressorError::NonFinite)
+        }
+    }
+}
+
+impl<const NX: usize, const NP: usize> StartProvider<SVector<f64, NP>, NX> for LearnedStart {
+    fn name(&self) -> &'static str {
+        "learned"
+    }
+    fn start(&self, p: &SVector<f64, NP>) -> Result<SVector<f64, NX>, StartError> {
+        let mut x = SVector::<f64, NX>::zeros();
+        self.predict(p.as_slice(), x.as_mut_slice()).map_err(|e| StartError { provider: "learned", reason: e.to_string() })?;
+        Ok(x)
+    }
+}
+
+/// The target parameters of a problem whose pipeline data is its parameter vector: `p`
+/// itself, checked; a non-finite value is reported by row and field through `P`'s layout.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ParameterVector<P>(std::marker::PhantomData<fn() -> P>);
+
+impl<P> ParameterVector<P> {
+    /// The checker.
+    pub fn new() -> Self {
+        Self(std::marker::PhantomData)
+    }
+}
+
+impl<P: crate::ProblemLayout, const NP: usize> super::TargetParameters<SVector<f64, NP>, NP> for ParameterVector<P> {
+    type Error = NonFiniteParameter;
+    fn params(&self, p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, NonFiniteParameter> {
+        match p.iter().position(|v| !v.is_finite()) {
+            Some(index) => Err(NonFiniteParameter::locate(&P::LAYOUT, index)),
+            None => Ok(*p),
+        }
+    }
+}
+
+/// A parameter that is NaN or infinite, and where it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("{}field `{field}`: not finite (parameter {index})", match row { Some(r) => format!("row {r}, "), None => "global ".to_string() })]
+pub struct NonFiniteParameter {
+    /// The row (correspondence), `None` for a global parameter.
+    pub row: Option<usize>,
+    /// The declared field.
+    pub field: &'static str,
+    /// Its index in the parameter vector.
+    pub index: usize,
+}
+
+impl NonFiniteParameter {
+    /// Where parameter `index` of `layout` is.
+    pub fn locate(layout: &Layout, index: usize) -> Self {
+        let rows_len = layout.rows * layout.per_row;
+        let (row, within, fields) = if index < rows_len {
+            (Some(index / layout.per_row), index % layout.per_row, layout.row)
+        } else {
+            (None, index - rows_len, layout.globals)
+        };
+        let field = fields.iter().find(|f| within >= f.offset && within < f.offset + f.kind.len()).map_or("?", |f| f.name);
+        Self { row, field, index }
+    }
+}

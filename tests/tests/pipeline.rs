@@ -7,6 +7,7 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{
+    Canonicalize,
     Fallback, Generic, Origin, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider, TargetParameters, Validator,
     Verdict,
 };
@@ -253,4 +254,49 @@ fn bad_input_is_a_typed_error_that_says_where() {
     let err = pipeline.solve(&data).unwrap_err();
     assert_eq!(err, PipelineError::Input(NotFinite { index: 2, field: "p" }));
     assert_eq!(err.to_string(), "input: correspondence 2, field `p`: not finite");
+}
+
+/// The world points centred on their mean: `R p + t = R (p - m) + (t + R m)`.
+struct CentredWorld;
+
+impl simhc::pipeline::Canonicalize<Data, 7> for CentredWorld {
+    type Frame = Vector3<f64>;
+    type Canonical = Data;
+    fn canonicalize(&self, d: &Data) -> Option<(Vector3<f64>, Data)> {
+        let m = d.p.iter().sum::<Vector3<f64>>() / 4.0;
+        m.iter().all(|v| v.is_finite()).then(|| (m, Data { f: d.f, p: d.p.map(|p| p - m) }))
+    }
+    fn to_user(&self, m: &Vector3<f64>, x: &SVector<f64, 7>) -> SVector<f64, 7> {
+        let (r, t) = pose(x);
+        let t = t - r * m;
+        SVector::from([x[0], x[1], x[2], x[3], t.x, t.y, t.z])
+    }
+}
+
+#[test]
+fn canonical_frames_give_the_same_solution_in_the_users_frame() {
+    let seed = 8;
+    println!("seed {seed}");
+    let (mut data, truth, r) = scene(seed);
+    // The user's world frame far from the points.
+    let shift = Vector3::new(300.0, -120.0, 45.0);
+    data.p = data.p.map(|p| p + shift);
+    let t_user = Vector3::new(truth[4], truth[5], truth[6]) - r * shift;
+    // Start providers see the canonical data, so this fixed start is given in the canonical
+    // frame (points centred): `t~ = t + R m`.
+    let (m, _) = CentredWorld.canonicalize(&data).expect("a frame");
+    let mut start = near(&truth, &r, 10.0, seed);
+    let t_can = Vector3::new(start[4], start[5], start[6]) + r * (m - shift);
+    start.fixed_rows_mut::<3>(4).copy_from(&t_can);
+    let starts: [&dyn StartProvider<Data, 7>; 1] = [&Fixed("near", start)];
+    let sim = simulator();
+    let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT);
+    let solved = pipeline.solve_canonical(&CentredWorld, &data).expect("validated in the user's frame");
+    let (r_hat, t_hat) = pose(&solved.x);
+    assert!(rotation_error_deg(&r_hat, &r) < 1e-6);
+    assert!((t_hat - t_user).norm() < 1e-7 * t_user.norm(), "translation {t_hat} vs {t_user}");
+    // The check is the user's: recomputed on the data as given.
+    assert_eq!(solved.check, STRICT.check(&data, &solved.x));
+    // The start is reported in the user's frame too.
+    assert_eq!(solved.start, CentredWorld.to_user(&m, &start));
 }

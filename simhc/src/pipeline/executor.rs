@@ -2,11 +2,12 @@
 
 use super::path::simulator_hc;
 use super::{
-    AttemptError, Fallback, Origin, PipelineError, Solved, StageTimes, StartProvider, StartSimulator, TargetParameters,
+    AttemptError, Canonicalize, Fallback, Origin, PipelineError, Solved, StageTimes, StartProvider, StartSimulator, TargetParameters,
     Validator, Verdict,
 };
 use crate::tracker::{TrackStats, TrackerOptions};
 use crate::CoefficientForm;
+use std::borrow::Borrow;
 use std::marker::PhantomData;
 use std::time::Instant;
 
@@ -79,6 +80,39 @@ where
     /// Solves `data` with the pipeline's starts and, if nothing validated, its fallback.
     pub fn solve(&self, data: &D) -> Outcome<T, V, D, NX, NP> {
         self.run(data, self.starts, self.options.fallback)
+    }
+
+    /// Solves `data` in the canonical frame of `canon`: the starts, the simulator, the paths and
+    /// the fallback run on the canonical data; the solution (and its start) is mapped back and
+    /// checked again on the user's data, so the verdict and the check are the user's. Data
+    /// without a frame is solved as given.
+    pub fn solve_canonical<C>(&self, canon: &C, data: &D) -> Outcome<T, V, D, NX, NP>
+    where
+        C: Canonicalize<D, NX>,
+    {
+        let Some((frame, canonical)) = canon.canonicalize(data) else {
+            return self.solve(data);
+        };
+        let back = |mut s: Solved<V::Check, NX>| {
+            s.x = canon.to_user(&frame, &s.x);
+            s.start = canon.to_user(&frame, &s.start);
+            s.check = self.validator.check(data, &s.x);
+            s
+        };
+        match self.solve(canonical.borrow()) {
+            Ok(s) => {
+                let s = back(s);
+                if self.validator.verdict(&s.check) == Verdict::Reject {
+                    // Accepted in the canonical frame, not in the user's (rounding at a
+                    // threshold): flagged, never returned as a solution.
+                    Err(PipelineError::NotValidated(Box::new(s)))
+                } else {
+                    Ok(s)
+                }
+            }
+            Err(PipelineError::NotValidated(s)) => Err(PipelineError::NotValidated(Box::new(back(*s)))),
+            Err(e) => Err(e),
+        }
     }
 
     /// Solves `data` with other start providers (a caller's guess, an ablation), in order.

@@ -12,7 +12,11 @@
 //! - [`Validator`]: does an end point explain *all* the data (residual on redundant rows,
 //!   inequalities such as positive depth)? Accept, keep as plausible, or reject;
 //! - [`Fallback`] (optional): candidate solutions from all roots, validated like any end
-//!   point.
+//!   point;
+//! - [`Canonicalize`] (optional): the data in a frame computed from itself, the solution
+//!   mapped back ([`Pipeline::solve_canonical`]);
+//! - [`LearnedStart`]: the generic learned start of a declared problem, trained from its
+//!   sampler by `simhc_regressor::generic`.
 //!
 //! [`Pipeline::solve`] (in [`executor`]) drives them. The path of one attempt is
 //! [`path::simulator_hc`]. Nothing is returned as `Ok` unless it validated; otherwise the
@@ -28,6 +32,7 @@ use std::time::Duration;
 use thiserror::Error;
 
 pub use executor::{Pipeline, PipelineOptions};
+pub use learned::{LearnedStart, ParameterVector};
 
 use crate::tracker::{TrackError, TrackStats};
 use crate::SimulatorError;
@@ -99,6 +104,21 @@ pub trait Validator<D: ?Sized, const NX: usize> {
     fn verdict(&self, check: &Self::Check) -> Verdict;
     /// Whether `a` explains the data better than `b` (ranks plausible and rejected end points).
     fn better(&self, a: &Self::Check, b: &Self::Check) -> bool;
+}
+
+/// An optional change of the data to a frame computed from the data itself (centring,
+/// principal axes, units), so that the start, the simulator and the paths see the same numbers
+/// whatever frame the user's data came in ([`Pipeline::solve_canonical`]).
+pub trait Canonicalize<D: ?Sized, const NX: usize> {
+    /// What is needed to map a solution back.
+    type Frame;
+    /// The data in the canonical frame.
+    type Canonical: std::borrow::Borrow<D>;
+    /// The frame and the canonical data; `None` when the data has no frame (the pipeline then
+    /// solves the data as given).
+    fn canonicalize(&self, data: &D) -> Option<(Self::Frame, Self::Canonical)>;
+    /// A canonical solution in the user's frame.
+    fn to_user(&self, frame: &Self::Frame, x: &SVector<f64, NX>) -> SVector<f64, NX>;
 }
 
 /// Candidate solutions when no path validated, typically all real roots of a start system.

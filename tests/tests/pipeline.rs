@@ -7,7 +7,7 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{
-    Canonicalize,
+    Attempt, Canonicalize, Method,
     Fallback, Generic, Origin, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider, TargetParameters, Validator,
     Verdict,
 };
@@ -176,7 +176,7 @@ fn retries_after_a_start_that_is_not_available() {
     let sim = simulator();
     let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT);
     let solved = pipeline.solve(&data).expect("the second start validates");
-    assert_eq!(solved.origin, Origin::Path { provider: 1 });
+    assert_eq!(solved.origin, Origin::Path { provider: 1, method: Method::SimulatorHc });
     assert_eq!(solved.attempts, 2);
     assert!(solved.check.0 < 1e-8);
     assert!(rotation_error_deg(&pose(&solved.x).0, &r) < 1e-6);
@@ -238,7 +238,7 @@ fn plausible_end_points_get_extra_attempts_and_the_best_is_returned() {
     let sim = simulator();
     let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &loose);
     let one = pipeline.solve(&data).expect("plausible");
-    assert_eq!((one.attempts, one.origin), (1, Origin::Path { provider: 0 }));
+    assert_eq!((one.attempts, one.origin), (1, Origin::Path { provider: 0, method: Method::SimulatorHc }));
     let two = pipeline.with_options(PipelineOptions { extra_attempts: 1, ..PipelineOptions::default() }).solve(&data).expect("plausible");
     assert_eq!(two.attempts, 2, "one extra attempt after the first plausible end point");
     assert!(two.check.0 <= one.check.0);
@@ -299,4 +299,44 @@ fn canonical_frames_give_the_same_solution_in_the_users_frame() {
     assert_eq!(solved.check, STRICT.check(&data, &solved.x));
     // The start is reported in the user's frame too.
     assert_eq!(solved.start, CentredWorld.to_user(&m, &start));
+}
+
+/// A fixed start that counts how often it was asked.
+struct Counted(SVector<f64, 7>, std::cell::Cell<usize>);
+
+impl StartProvider<Data, 7> for Counted {
+    fn name(&self) -> &'static str {
+        "counted"
+    }
+    fn start(&self, _: &Data) -> Result<SVector<f64, 7>, StartError> {
+        self.1.set(self.1.get() + 1);
+        Ok(self.0)
+    }
+}
+
+#[test]
+fn a_schedule_tries_methods_in_order_and_computes_each_start_once() {
+    let seed = 9;
+    println!("seed {seed}");
+    let (data, truth, r) = scene(seed);
+    // A start no method can use (NaN): both of its attempts fail.
+    let counted = Counted(SVector::from_element(f64::NAN), std::cell::Cell::new(0));
+    let near_start = Fixed("near", near(&truth, &r, 5.0, seed));
+    let starts: [&dyn StartProvider<Data, 7>; 2] = [&counted, &near_start];
+    let schedule = [
+        Attempt { provider: 0, method: Method::GaussNewton },
+        Attempt { provider: 0, method: Method::SimulatorHc },
+        Attempt { provider: 7, method: Method::SimulatorHc },
+        Attempt { provider: 1, method: Method::GaussNewton },
+    ];
+    let sim = simulator();
+    let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_schedule(&schedule);
+    let solved = pipeline.solve(&data).expect("some attempt validates");
+    println!("origin {:?} after {} attempts", solved.origin, solved.attempts);
+    assert_eq!(counted.1.get(), 1, "one start per provider, shared by its methods");
+    assert!(rotation_error_deg(&pose(&solved.x).0, &r) < 1e-6);
+    // The near start by Gauss-Newton, after both methods failed on the first start and the
+    // missing provider 7 was skipped (not counted as an attempt).
+    assert_eq!(solved.origin, Origin::Path { provider: 1, method: Method::GaussNewton });
+    assert_eq!(solved.attempts, 3);
 }

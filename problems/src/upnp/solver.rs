@@ -311,7 +311,7 @@ impl UpnpSolver {
             })
             .collect();
         let validator = UpnpValidator { max_angle: o.max_angle, max_behind: o.max_behind };
-        let options = PipelineOptions { tracker: o.tracker, extra_attempts: 0, fallback };
+        let options = PipelineOptions { tracker: o.tracker, extra_attempts: 0, fallback, ..PipelineOptions::default() };
         let pipeline = Pipeline::<Upnp, _, _, _, _, 4, 5, 66, 35>::new(&TargetOfSystem, &starts, &GeometricSimulator, &validator)
             .with_fallback(&GlobalMinimum)
             .with_options(options);
@@ -319,7 +319,7 @@ impl UpnpSolver {
             let q = [solved.x[0], solved.x[1], solved.x[2], solved.x[3]];
             let pose = UpnpPose::of_quaternion(&instance.system, q).ok_or(TrackError::NonFinite { t: 1.0 })?;
             let (start_kind, method) = match solved.origin {
-                Origin::Path { provider } => (kinds[provider], Method::SimulatorHc),
+                Origin::Path { provider, .. } => (kinds[provider], Method::SimulatorHc),
                 // The fallback is credited to the first start, as before the pipeline.
                 Origin::Fallback { .. } => (kinds.first().copied().unwrap_or(StartKind::Linear), Method::AllRoots),
             };

@@ -1,11 +1,12 @@
 //! The executor: runs the attempts of a [`Pipeline`] in order until one validates.
 
-use super::path::simulator_hc;
+use super::path::{gauss_newton, simulator_hc};
 use super::{
-    AttemptError, Canonicalize, Fallback, Origin, PipelineError, Solved, StageTimes, StartProvider, StartSimulator, TargetParameters,
+    Attempt, AttemptError, Canonicalize, Fallback, Method, StartError, Origin, PipelineError, Solved, StageTimes, StartProvider, StartSimulator, TargetParameters,
     Validator, Verdict,
 };
-use crate::tracker::{TrackStats, TrackerOptions};
+use crate::tracker::{NewtonOptions, TrackStats, TrackerOptions};
+use nalgebra::SVector;
 use crate::CoefficientForm;
 use std::borrow::Borrow;
 use std::marker::PhantomData;
@@ -21,11 +22,13 @@ pub struct PipelineOptions {
     pub extra_attempts: usize,
     /// Whether to ask the [`Fallback`] when no path validated. Default `true`.
     pub fallback: bool,
+    /// Settings of [`Method::GaussNewton`] attempts.
+    pub newton: NewtonOptions,
 }
 
 impl Default for PipelineOptions {
     fn default() -> Self {
-        Self { tracker: TrackerOptions::single_path(), extra_attempts: 0, fallback: true }
+        Self { tracker: TrackerOptions::single_path(), extra_attempts: 0, fallback: true, newton: NewtonOptions::default() }
     }
 }
 
@@ -42,6 +45,8 @@ pub struct Pipeline<'a, P, D: ?Sized, T, S: ?Sized, V, const NX: usize, const NF
     pub validator: &'a V,
     /// Candidates when no path validated.
     pub fallback: Option<&'a dyn Fallback<D, NX, NP>>,
+    /// The attempts in order; `None`: one Simulator HC path per start provider.
+    pub schedule: Option<&'a [Attempt]>,
     /// Executor settings.
     pub options: PipelineOptions,
     problem: PhantomData<fn() -> P>,
@@ -62,12 +67,19 @@ where
 {
     /// The pipeline of these pieces with default options and no fallback.
     pub fn new(target: &'a T, starts: &'a [&'a dyn StartProvider<D, NX>], simulator: &'a S, validator: &'a V) -> Self {
-        Self { target, starts, simulator, validator, fallback: None, options: PipelineOptions::default(), problem: PhantomData }
+        Self { target, starts, simulator, validator, fallback: None, schedule: None, options: PipelineOptions::default(), problem: PhantomData }
     }
 
     /// The same pipeline with a fallback.
     pub fn with_fallback(mut self, fallback: &'a dyn Fallback<D, NX, NP>) -> Self {
         self.fallback = Some(fallback);
+        self
+    }
+
+    /// The same pipeline with an explicit schedule of attempts (for example each start first
+    /// with Gauss-Newton, then with Simulator HC). A start is computed once per provider.
+    pub fn with_schedule(mut self, schedule: &'a [Attempt]) -> Self {
+        self.schedule = Some(schedule);
         self
     }
 
@@ -77,9 +89,9 @@ where
         self
     }
 
-    /// Solves `data` with the pipeline's starts and, if nothing validated, its fallback.
+    /// Solves `data` with the pipeline's schedule and, if nothing validated, its fallback.
     pub fn solve(&self, data: &D) -> Outcome<T, V, D, NX, NP> {
-        self.run(data, self.starts, self.options.fallback)
+        self.run(data, self.starts, self.schedule, self.options.fallback)
     }
 
     /// Solves `data` in the canonical frame of `canon`: the starts, the simulator, the paths and
@@ -116,11 +128,12 @@ where
     }
 
     /// Solves `data` with other start providers (a caller's guess, an ablation), in order.
+    /// One Simulator HC path per provider; the pipeline's schedule is not used.
     pub fn solve_with(&self, data: &D, starts: &[&dyn StartProvider<D, NX>], fallback: bool) -> Outcome<T, V, D, NX, NP> {
-        self.run(data, starts, fallback)
+        self.run(data, starts, None, fallback)
     }
 
-    fn run(&self, data: &D, starts: &[&dyn StartProvider<D, NX>], fallback: bool) -> Outcome<T, V, D, NX, NP> {
+    fn run(&self, data: &D, starts: &[&dyn StartProvider<D, NX>], schedule: Option<&[Attempt]>, fallback: bool) -> Outcome<T, V, D, NX, NP> {
         let o = &self.options;
         let mut times = StageTimes::default();
         let t0 = Instant::now();
@@ -133,17 +146,35 @@ where
         let mut best: Option<Solved<V::Check, NX>> = None;
         let mut plausible: Option<Solved<V::Check, NX>> = None;
         let mut last = None;
-        for (provider, start) in starts.iter().enumerate() {
+        let default_schedule = (0..starts.len()).map(|provider| Attempt { provider, method: Method::SimulatorHc });
+        let attempts_in_order: Box<dyn Iterator<Item = Attempt>> = match schedule {
+            Some(s) => Box::new(s.iter().copied()),
+            None => Box::new(default_schedule),
+        };
+        // The start of the provider last asked (providers repeat in a row in a schedule).
+        let mut current: Option<(usize, Result<SVector<f64, NX>, StartError>)> = None;
+        for Attempt { provider, method } in attempts_in_order {
             if attempts >= deadline {
                 break;
             }
+            let Some(start) = starts.get(provider) else {
+                last = Some(AttemptError::Start(StartError { provider: "schedule", reason: format!("no start provider {provider}") }));
+                continue;
+            };
             attempts += 1;
-            let ts = Instant::now();
-            let x0 = start.start(data);
-            times.start += ts.elapsed();
-            let attempt = x0
-                .map_err(AttemptError::from)
-                .and_then(|x0| simulator_hc::<P, D, S, NX, NF, NP, NC>(data, self.simulator, &x0, &p, &o.tracker, &mut times).map(|r| (x0, r)));
+            if current.as_ref().is_none_or(|(k, _)| *k != provider) {
+                let ts = Instant::now();
+                current = Some((provider, start.start(data)));
+                times.start += ts.elapsed();
+            }
+            let x0 = current.as_ref().map(|(_, x)| x.clone()).expect("set above");
+            let attempt = x0.map_err(AttemptError::from).and_then(|x0| {
+                let end = match method {
+                    Method::SimulatorHc => simulator_hc::<P, D, S, NX, NF, NP, NC>(data, self.simulator, &x0, &p, &o.tracker, &mut times),
+                    Method::GaussNewton => gauss_newton::<P, NX, NF, NP>(&x0, &p, &o.newton, &mut times),
+                };
+                end.map(|r| (x0, r))
+            });
             let (x0, (x, stats)) = match attempt {
                 Ok(r) => r,
                 Err(e) => {
@@ -154,7 +185,7 @@ where
             let tv = Instant::now();
             let check = self.validator.check(data, &x);
             times.tracking += tv.elapsed();
-            let solved = Solved { x, start: x0, origin: Origin::Path { provider }, attempts, check, stats, times };
+            let solved = Solved { x, start: x0, origin: Origin::Path { provider, method }, attempts, check, stats, times };
             match self.validator.verdict(&check) {
                 Verdict::Accept => return Ok(solved),
                 Verdict::Plausible => {

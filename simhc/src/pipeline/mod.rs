@@ -142,13 +142,34 @@ pub struct StageTimes {
     pub fallback: Duration,
 }
 
+/// How an attempt goes from its start to an end point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// One Simulator HC path (the paper's method).
+    #[default]
+    SimulatorHc,
+    /// Gauss-Newton on the target system from the start (no homotopy).
+    GaussNewton,
+}
+
+/// One scheduled attempt: a start provider (index into the pipeline's providers) and a method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Attempt {
+    /// Index of the start provider.
+    pub provider: usize,
+    /// The method.
+    pub method: Method,
+}
+
 /// What produced a solution.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Origin {
-    /// One Simulator HC path from start provider number `provider` (in the pipeline's order).
+    /// An attempt from start provider number `provider` (in the pipeline's order).
     Path {
         /// Index of the start provider.
         provider: usize,
+        /// The attempt's method.
+        method: Method,
     },
     /// Candidate number `candidate` of the fallback.
     Fallback {

@@ -1,9 +1,11 @@
-//! One Simulator HC attempt: the simulated start problem, the straight line in coefficient
-//! form to the target, the adaptive tracker (stage 3 of the paper).
+//! One attempt from a start: Simulator HC (the simulated start problem, the straight line in
+//! coefficient form to the target, the adaptive tracker: stage 3 of the paper), or plain
+//! Gauss-Newton on the target system (the paper's "Pred + LM" baseline, and a cheap first try
+//! when starts are good).
 
 use super::{AttemptError, StageTimes, StartSimulator};
 use crate::homotopy::CoefficientLine;
-use crate::tracker::{track, TrackStats, TrackerOptions};
+use crate::tracker::{solve_newton, track, NewtonOptions, TrackError, TrackStats, TrackerOptions};
 use crate::CoefficientForm;
 use nalgebra::SVector;
 use std::time::Instant;
@@ -33,4 +35,26 @@ where
     times.tracking += tt.elapsed();
     let result = result?;
     Ok((result.x, result.stats))
+}
+
+/// Gauss-Newton from `x0` on the target parameters `p`. Accepted when it converged or its last
+/// update is below `1e-7` (on noisy overdetermined systems Gauss-Newton converges linearly at
+/// the least-squares point); validation decides the rest.
+pub fn gauss_newton<P, const NX: usize, const NF: usize, const NP: usize>(
+    x0: &SVector<f64, NX>,
+    p: &SVector<f64, NP>,
+    options: &NewtonOptions,
+    times: &mut StageTimes,
+) -> Result<(SVector<f64, NX>, TrackStats), AttemptError>
+where
+    P: crate::Problem<NX, NF, NP>,
+{
+    let t = Instant::now();
+    let r = solve_newton::<P, f64, NX, NF, NP>(x0, p, options);
+    times.tracking += t.elapsed();
+    let r = r?;
+    if !r.converged && (r.accuracy.is_nan() || r.accuracy > 1e-7) {
+        return Err(TrackError::CorrectorDidNotConverge { t: 1.0 }.into());
+    }
+    Ok((r.x, TrackStats { newton_iterations: r.iterations, ..TrackStats::default() }))
 }

@@ -10,7 +10,8 @@
 use nalgebra::{SVector, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use simhc::pipeline::{Generic, LearnedStart, ParameterVector, Pipeline, StartError, StartProvider, Validator, Verdict};
+use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow};
+use simhc::pipeline::{Attempt, Generic, LearnedStart, Method, ParameterVector, Pipeline, StartError, StartProvider, Validator, Verdict};
 use simhc::{MinNormSimulator, ProblemLayout};
 use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, rotation_from_quat};
 use simhc_problems::upnp::scene::random_rotation;
@@ -112,46 +113,35 @@ impl StartProvider<Params, 7> for RandomStart {
     }
 }
 
-/// Success counts and times of one start provider on scenes.
-#[derive(Debug, Clone, Default)]
-pub struct Tally {
-    /// Solved and validated, at the truth.
-    pub solved: usize,
-    /// Returned as validated but not at the truth (must stay 0).
-    pub wrong_unflagged: usize,
-    /// Solve times in microseconds.
-    pub micros: Vec<f64>,
+/// The bench's criterion: rotation within 2 degrees of the truth (the paper's, for UPnP).
+pub fn correct(x: &Unknowns, truth: &Unknowns) -> bool {
+    let r = |v: &Unknowns| rotation_from_quat([v[0], v[1], v[2], v[3]]);
+    rotation_error_deg(&r(x), &r(truth)) < 2.0
 }
 
-// 5. Solving: the pipeline with the learned start, the generic simulator and validation.
-/// Solves `scenes` with `start` and counts the outcomes.
-pub fn evaluate(start: &dyn StartProvider<Params, 7>, scenes: &[(Params, Unknowns)]) -> Tally {
+// 5. Solving and benchmarking: the pipeline with the learned start, the generic simulator and
+//    validation; the paper's rows on the same scenes.
+/// Pred Initial, Pred + Gauss-Newton, Rand + Sim HC, Pred + Sim HC (one path), and the learned
+/// start with Gauss-Newton first, then Simulator HC.
+pub fn bench(learned: &LearnedStart, scenes: &[(Params, Unknowns)], seed: u64) -> Vec<BenchRow> {
     let (target, simulator) = (ParameterVector::<Pnp>::new(), Generic(MinNormSimulator::<Pnp>::new()));
-    let starts = [start];
-    let pipeline = Pipeline::<Pnp, _, _, _, _, 7, 19, 36, { Pnp::NC }>::new(&target, &starts, &simulator, &Reprojection);
-    let mut tally = Tally::default();
-    for (p, x) in scenes {
-        let t0 = std::time::Instant::now();
-        let result = pipeline.solve(p);
-        tally.micros.push(t0.elapsed().as_secs_f64() * 1e6);
-        if let Ok(solved) = result {
-            let truth = rotation_from_quat([x[0], x[1], x[2], x[3]]);
-            let r = rotation_from_quat([solved.x[0], solved.x[1], solved.x[2], solved.x[3]]);
-            if rotation_error_deg(&r, &truth) < 1e-4 {
-                tally.solved += 1;
-            } else {
-                tally.wrong_unflagged += 1;
-            }
-        }
-    }
-    tally
-}
-
-/// The median of `v`.
-pub fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    let random = RandomStart(std::cell::RefCell::new(ChaCha8Rng::seed_from_u64(seed)));
+    let starts: [&dyn StartProvider<Params, 7>; 2] = [learned, &random];
+    let run = |name: &str, schedule: &[Attempt]| {
+        let p = Pipeline::<Pnp, _, _, _, _, 7, 19, 36, { Pnp::NC }>::new(&target, &starts, &simulator, &Reprojection).with_schedule(schedule);
+        bench_row(name, scenes, correct, |d| p.solve(d))
+    };
+    let (pred, rand) = (0, 1);
+    vec![
+        bench_estimate_row("Pred Initial", scenes, correct, |p| StartProvider::<Params, 7>::start(learned, p).ok()),
+        run("Pred + Gauss-Newton", &[Attempt { provider: pred, method: Method::GaussNewton }]),
+        run("Rand + Sim HC", &[Attempt { provider: rand, method: Method::SimulatorHc }]),
+        run("Pred + Sim HC (one path)", &[Attempt { provider: pred, method: Method::SimulatorHc }]),
+        run(
+            "Pred: Gauss-Newton, then Sim HC",
+            &[Attempt { provider: pred, method: Method::GaussNewton }, Attempt { provider: pred, method: Method::SimulatorHc }],
+        ),
+    ]
 }
 
 #[allow(dead_code)]
@@ -171,12 +161,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(1_000_000));
     let scenes: Vec<_> = (0..1000).map(|_| scene(&mut rng)).collect();
-    let learned: &LearnedStart = &trained.start;
-    let random = RandomStart(std::cell::RefCell::new(ChaCha8Rng::seed_from_u64(seed.wrapping_add(2))));
-    println!("{:<28} {:>7} {:>7} {:>9}", "start", "succ %", "wrong", "t med us");
-    for (name, start) in [("learned + Simulator HC", learned as &dyn StartProvider<Params, 7>), ("random + Simulator HC", &random)] {
-        let t = evaluate(start, &scenes);
-        println!("{name:<28} {:>7.1} {:>7} {:>9.1}", 100.0 * t.solved as f64 / scenes.len() as f64, t.wrong_unflagged, median(&t.micros));
-    }
+    println!("1000 unseen scenes, noise-free; success: validated and rotation within 2 deg");
+    print!("{}", table(&bench(&trained.start, &scenes, seed.wrapping_add(2))));
     Ok(())
 }

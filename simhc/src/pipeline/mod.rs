@@ -22,6 +22,7 @@
 //! [`path::simulator_hc`]. Nothing is returned as `Ok` unless it validated; otherwise the
 //! best end point comes back inside [`PipelineError::NotValidated`], flagged.
 
+pub mod bench;
 pub mod executor;
 pub mod learned;
 pub mod path;

@@ -1,0 +1,156 @@
+//! The paper's benchmark rows for any problem: each row solves the same trials with one
+//! configuration (a start alone, Gauss-Newton, one Simulator HC path from a learned or a random
+//! start, the full pipeline), and counts what came back. Timing is wall time per solve, single
+//! thread; report ratios within one run.
+
+use super::{PipelineError, Solved};
+use nalgebra::SVector;
+use std::fmt::Write as _;
+use std::time::Instant;
+
+/// What one configuration did on the trials.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BenchRow {
+    /// The row's name.
+    pub name: String,
+    /// Trials run.
+    pub trials: usize,
+    /// Returned as validated and correct (by the bench's criterion).
+    pub solved: usize,
+    /// Returned as validated but not correct: a wrong answer unflagged (must stay 0 for the
+    /// rows that validate).
+    pub wrong: usize,
+    /// Returned flagged ([`PipelineError::NotValidated`]).
+    pub flagged: usize,
+    /// No end point, or an input error.
+    pub failed: usize,
+    /// Median solve time, microseconds.
+    pub median_us: f64,
+    /// Mean solve time, microseconds.
+    pub mean_us: f64,
+}
+
+impl BenchRow {
+    /// `100 * solved / trials`.
+    pub fn success_pct(&self) -> f64 {
+        100.0 * self.solved as f64 / self.trials.max(1) as f64
+    }
+}
+
+/// Runs `solve` on every trial `(data, truth)`; `correct(x, truth)` is the bench's criterion.
+pub fn bench_row<D, C, E, F, const NX: usize>(
+    name: &str,
+    trials: &[(D, SVector<f64, NX>)],
+    correct: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
+    mut solve: F,
+) -> BenchRow
+where
+    E: std::error::Error,
+    C: std::fmt::Debug,
+    F: FnMut(&D) -> Result<Solved<C, NX>, PipelineError<E, C, NX>>,
+{
+    let mut row = BenchRow { name: name.to_string(), trials: trials.len(), solved: 0, wrong: 0, flagged: 0, failed: 0, median_us: f64::NAN, mean_us: f64::NAN };
+    let mut micros = Vec::with_capacity(trials.len());
+    for (data, truth) in trials {
+        let t = Instant::now();
+        let result = solve(data);
+        micros.push(t.elapsed().as_secs_f64() * 1e6);
+        match result {
+            Ok(s) if correct(&s.x, truth) => row.solved += 1,
+            Ok(_) => row.wrong += 1,
+            Err(PipelineError::NotValidated(_)) => row.flagged += 1,
+            Err(_) => row.failed += 1,
+        }
+    }
+    set_times(&mut row, micros);
+    row
+}
+
+/// A row for an estimate that is not validated (a start alone, "Pred Initial"): `estimate`
+/// returns `None` when it has nothing; a correct estimate counts as solved, any other as wrong.
+pub fn bench_estimate_row<D, const NX: usize>(
+    name: &str,
+    trials: &[(D, SVector<f64, NX>)],
+    correct: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
+    mut estimate: impl FnMut(&D) -> Option<SVector<f64, NX>>,
+) -> BenchRow {
+    let mut row = BenchRow { name: name.to_string(), trials: trials.len(), solved: 0, wrong: 0, flagged: 0, failed: 0, median_us: f64::NAN, mean_us: f64::NAN };
+    let mut micros = Vec::with_capacity(trials.len());
+    for (data, truth) in trials {
+        let t = Instant::now();
+        let x = estimate(data);
+        micros.push(t.elapsed().as_secs_f64() * 1e6);
+        match x {
+            Some(x) if correct(&x, truth) => row.solved += 1,
+            Some(_) => row.wrong += 1,
+            None => row.failed += 1,
+        }
+    }
+    set_times(&mut row, micros);
+    row
+}
+
+fn set_times(row: &mut BenchRow, mut micros: Vec<f64>) {
+    if micros.is_empty() {
+        return;
+    }
+    row.mean_us = micros.iter().sum::<f64>() / micros.len() as f64;
+    micros.sort_by(f64::total_cmp);
+    row.median_us = micros[micros.len() / 2];
+}
+
+/// The rows as a text table.
+pub fn table(rows: &[BenchRow]) -> String {
+    let mut out = format!("{:<36} {:>7} {:>6} {:>6} {:>6} {:>9} {:>9}\n", "method", "succ%", "wrong", "flag", "fail", "t med us", "t mean us");
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "{:<36} {:>7.1} {:>6} {:>6} {:>6} {:>9.1} {:>9.1}",
+            r.name,
+            r.success_pct(),
+            r.wrong,
+            r.flagged,
+            r.failed,
+            r.median_us,
+            r.mean_us
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{Origin, StageTimes};
+    use crate::tracker::TrackStats;
+
+    #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+    #[error("bad")]
+    struct Bad;
+
+    #[test]
+    fn outcomes_are_counted_where_they_belong() {
+        let trials: Vec<(u8, SVector<f64, 1>)> = (0..4).map(|k| (k, SVector::from([1.0]))).collect();
+        let solved = |x: f64| Solved {
+            x: SVector::from([x]),
+            start: SVector::from([0.0]),
+            origin: Origin::Fallback { candidate: 0 },
+            attempts: 1,
+            check: (),
+            stats: TrackStats::default(),
+            times: StageTimes::default(),
+        };
+        let row = bench_row("r", &trials, |x, t| (x[0] - t[0]).abs() < 1e-9, |k: &u8| match k {
+            0 => Ok(solved(1.0)),
+            1 => Ok(solved(2.0)),
+            2 => Err(PipelineError::<Bad, (), 1>::NotValidated(Box::new(solved(3.0)))),
+            _ => Err(PipelineError::Input(Bad)),
+        });
+        assert_eq!((row.solved, row.wrong, row.flagged, row.failed, row.trials), (1, 1, 1, 1, 4));
+        assert!(row.median_us >= 0.0 && row.mean_us >= 0.0);
+        assert_eq!(row.success_pct(), 25.0);
+        let est = bench_estimate_row("e", &trials, |x, t| (x[0] - t[0]).abs() < 1e-9, |k: &u8| (*k < 3).then(|| SVector::from([f64::from(*k)])));
+        assert_eq!((est.solved, est.wrong, est.failed), (1, 2, 1));
+        assert!(table(&[row, est]).lines().count() == 3);
+    }
+}

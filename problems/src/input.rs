@@ -16,6 +16,7 @@
 //! (zero bearings, too few correspondences) are the solver's typed errors.
 
 use serde_json::Value;
+use simhc::layout::{FieldKind, Layout};
 use std::fmt;
 use thiserror::Error;
 
@@ -167,6 +168,96 @@ pub fn parse_trials<T: TrialFields>(text: &str) -> Result<Vec<T>, InputError> {
         .collect()
 }
 
+/// The parameter vector of any declared problem from `{"correspondences": [{field: value, ..},
+/// ..], "globals": {field: value, ..}}`, read through the problem's [`Layout`]
+/// (`P::LAYOUT` of a `#[simhc_problem]` instance): exactly `layout.rows` correspondences with
+/// every row field, and every global field (`"globals"` may be omitted when there are none).
+/// Values by kind: a number (`Scalar`), an array of `n` numbers (`Vector(n)`, `Quat`), an array
+/// of `r` rows of `c` numbers (`Matrix(r, c)`), the full symmetric `n x n` matrix (`Sym(n)`;
+/// its upper triangle is used, and an asymmetric one is rejected).
+pub fn parse_layout_params(layout: &Layout, text: &str) -> Result<Vec<f64>, InputError> {
+    let doc = parse(text)?;
+    let root = Location::default();
+    let map = doc.as_object().ok_or_else(|| shape(root.clone(), "an object with `correspondences` and `globals`", &doc))?;
+    check_fields(map, &["correspondences", "globals"], &root)?;
+    let mut p = Vec::with_capacity(layout.param_len());
+    if layout.rows > 0 {
+        let list = map.get("correspondences").ok_or(InputError::Missing { at: root.clone(), field: "correspondences" })?;
+        let at = Location { field: Some("correspondences"), ..root.clone() };
+        let items = list.as_array().ok_or_else(|| shape(at.clone(), "an array of correspondences", list))?;
+        if items.len() != layout.rows {
+            return Err(InputError::Shape { at, expected: format!("{} correspondences", layout.rows), got: format!("{}", items.len()) });
+        }
+        let fields: Vec<&str> = layout.row.iter().map(|f| f.name).collect();
+        for (i, item) in items.iter().enumerate() {
+            let at = Location { correspondence: Some(i), ..root.clone() };
+            let obj = item.as_object().ok_or_else(|| shape(at.clone(), format!("an object with fields {}", names(&fields)), item))?;
+            check_fields(obj, &fields, &at)?;
+            for f in layout.row {
+                let value = obj.get(f.name).ok_or(InputError::Missing { at: at.clone(), field: f.name })?;
+                field_values(value, f.kind, Location { field: Some(f.name), ..at.clone() }, &mut p)?;
+            }
+        }
+    } else if map.contains_key("correspondences") {
+        return Err(InputError::Unknown { at: root, field: "correspondences".into(), expected: "`globals` (this problem has no rows)".into() });
+    }
+    if !layout.globals.is_empty() {
+        let globals = map.get("globals").ok_or(InputError::Missing { at: root.clone(), field: "globals" })?;
+        let at = Location { field: Some("globals"), ..root.clone() };
+        let obj = globals.as_object().ok_or_else(|| shape(at.clone(), "an object", globals))?;
+        let fields: Vec<&str> = layout.globals.iter().map(|f| f.name).collect();
+        check_fields(obj, &fields, &at)?;
+        for f in layout.globals {
+            let value = obj.get(f.name).ok_or(InputError::Missing { at: at.clone(), field: f.name })?;
+            field_values(value, f.kind, Location { field: Some(f.name), ..root.clone() }, &mut p)?;
+        }
+    }
+    Ok(p)
+}
+
+/// Appends the scalars of one field of kind `kind` (see [`parse_layout_params`]).
+fn field_values(value: &Value, kind: FieldKind, at: Location, out: &mut Vec<f64>) -> Result<(), InputError> {
+    let numbers = |value: &Value, n: usize, at: &Location| -> Result<Vec<f64>, InputError> {
+        let expected = format!("an array of {n} numbers");
+        let items = value.as_array().ok_or_else(|| shape(at.clone(), expected.clone(), value))?;
+        if items.len() != n {
+            return Err(InputError::Shape { at: at.clone(), expected, got: format!("an array of {}", items.len()) });
+        }
+        items
+            .iter()
+            .enumerate()
+            .map(|(k, item)| item.as_f64().ok_or_else(|| InputError::Shape { at: at.clone(), expected: expected.clone(), got: format!("{} at index {k}", kind_of(item)) }))
+            .collect()
+    };
+    let matrix = |value: &Value, r: usize, c: usize| -> Result<Vec<Vec<f64>>, InputError> {
+        let rows = value.as_array().filter(|rows| rows.len() == r).ok_or_else(|| shape(at.clone(), format!("an array of {r} rows"), value))?;
+        rows.iter().enumerate().map(|(i, row)| numbers(row, c, &Location { row: Some(i), ..at.clone() })).collect()
+    };
+    match kind {
+        FieldKind::Scalar => out.push(value.as_f64().ok_or_else(|| shape(at.clone(), "a number", value))?),
+        FieldKind::Vector(n) => out.extend(numbers(value, n, &at)?),
+        FieldKind::Quat => out.extend(numbers(value, 4, &at)?),
+        FieldKind::Matrix(r, c) => out.extend(matrix(value, r, c)?.concat()),
+        FieldKind::Sym(n) => {
+            let m = matrix(value, n, n)?;
+            for i in 0..n {
+                for j in i..n {
+                    let (a, b) = (m[i][j], m[j][i]);
+                    if (a - b).abs() > 1e-12 * (1.0 + a.abs().max(b.abs())) {
+                        return Err(InputError::Shape { at: Location { row: Some(j), ..at }, expected: format!("a symmetric matrix (entry {j},{i} equal to {i},{j} = {a})"), got: format!("{b}") });
+                    }
+                    out.push(a);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn kind_of(value: &Value) -> &'static str {
+    kind(value)
+}
+
 fn parse(text: &str) -> Result<Value, InputError> {
     serde_json::from_str(text).map_err(|e| {
         let (line, column) = (e.line(), e.column());
@@ -255,6 +346,55 @@ mod tests {
         {"p": [1, 2, 3], "f": [0, 0, 1], "v": [0.5, 0, 0]},
         {"p": [2, 2, 3], "f": [0, 1, 0], "v": [0, 0, 0]}
     ]}"#;
+
+    #[test]
+    fn layout_params_match_the_generated_packing() {
+        use simhc::ProblemLayout;
+        let scene = crate::grps::scene::GrpsSceneConfig::default().sample_seeded(5).unwrap();
+        let rows: Vec<String> = scene
+            .correspondences
+            .iter()
+            .map(|c| format!(r#"{{"f": {:?}, "v": {:?}, "fp": {:?}, "vp": {:?}}}"#, c.f.as_slice(), c.v.as_slice(), c.fp.as_slice(), c.vp.as_slice()))
+            .collect();
+        let text = format!(r#"{{"correspondences": [{}]}}"#, rows.join(", "));
+        let p = parse_layout_params(&crate::grps::Grps8::LAYOUT, &text).unwrap();
+        let rows8: [crate::grps::Row; 8] = std::array::from_fn(|i| crate::grps::Row::from(&scene.correspondences[i]));
+        assert_eq!(p.as_slice(), crate::grps::Grps8::params(&rows8).as_slice());
+
+        // A problem with a symmetric global and no rows.
+        let m: Vec<Vec<f64>> = (0..11).map(|i| (0..11).map(|j| (i.min(j) * 11 + i.max(j)) as f64).collect()).collect();
+        let text = format!(r#"{{"globals": {{"m": {m:?}}}}}"#);
+        let p = parse_layout_params(&crate::upnp::Upnp::LAYOUT, &text).unwrap();
+        let upper: Vec<f64> = (0..11).flat_map(|i| (i..11).map(move |j| (i * 11 + j) as f64)).collect();
+        assert_eq!(p, upper);
+    }
+
+    #[test]
+    fn layout_params_errors_say_where() {
+        use simhc::ProblemLayout;
+        let layout = crate::grps::Grps7::LAYOUT;
+        let row = r#"{"f": [0, 0, 1], "v": [0, 0, 0], "fp": [0, 0, 1], "vp": [1, 0, 0]}"#;
+        let seven = vec![row; 7].join(", ");
+        assert!(parse_layout_params(&layout, &format!(r#"{{"correspondences": [{seven}]}}"#)).is_ok());
+        let e = parse_layout_params(&layout, &format!(r#"{{"correspondences": [{}]}}"#, vec![row; 6].join(", "))).unwrap_err();
+        assert_eq!(e.to_string(), "field `correspondences`: expected 7 correspondences, got 6");
+        let mut rows = vec![row.to_string(); 7];
+        rows[3] = row.replace(r#""vp": [1, 0, 0]"#, r#""vp": [1, 0]"#);
+        let bad = rows.join(", ");
+        let e = parse_layout_params(&layout, &format!(r#"{{"correspondences": [{bad}]}}"#)).unwrap_err();
+        assert_eq!(e.to_string(), "correspondence 3, field `vp`: expected an array of 3 numbers, got an array of 2");
+        let typo = seven.replacen(r#""fp""#, r#""fq""#, 1);
+        let e = parse_layout_params(&layout, &format!(r#"{{"correspondences": [{typo}]}}"#)).unwrap_err();
+        assert!(e.to_string().starts_with("correspondence 0: unknown field `fq`"), "{e}");
+        let e = parse_layout_params(&layout, r#"{"correspondences": [{"f": [0, NaN, 1]}]}"#).unwrap_err();
+        assert!(matches!(e, InputError::Syntax { line: 1, .. }), "{e}");
+        let mut m = vec![vec![0.0; 11]; 11];
+        m[2][5] = 1.0;
+        let e = parse_layout_params(&crate::upnp::Upnp::LAYOUT, &format!(r#"{{"globals": {{"m": {m:?}}}}}"#)).unwrap_err();
+        assert!(e.to_string().starts_with("field `m`, row 5: expected a symmetric matrix"), "{e}");
+        let e = parse_layout_params(&crate::upnp::Upnp::LAYOUT, "{}").unwrap_err();
+        assert_eq!(e.to_string(), "document: missing field `globals`");
+    }
 
     #[test]
     fn both_forms_parse() {

@@ -2,7 +2,14 @@
 //! solve with the Simulator HC pipeline, measure. The README's tutorial walks through this
 //! file; `simhc/regressor/tests/learned_start.rs` runs the same code with a smaller training.
 //!
-//!     cargo run --release -p simhc-regressor --example own_problem -- [seed]
+//!     cargo run --release -p simhc-regressor --example own_problem -- train [seed]
+//!     cargo run --release -p simhc-regressor --example own_problem -- sample FILE [seed]
+//!     cargo run --release -p simhc-regressor --example own_problem -- solve FILE
+//!
+//! `train` trains, writes `target/own_problem.folded` and prints the paper's rows on 1000
+//! unseen scenes; `sample` writes one scene's correspondences as JSON; `solve` reads such a
+//! file (`{"correspondences": [{"f": [..], "p": [..]}, ..]}`, read through the layout) and
+//! prints the validated pose, or why there is none.
 //!
 //! The problem: central absolute pose (PnP) from 6 bearings `f` of world points `p`,
 //! `f x (R p + t) = 0`, over all rotations.
@@ -144,9 +151,42 @@ pub fn bench(learned: &LearnedStart, scenes: &[(Params, Unknowns)], seed: u64) -
     ]
 }
 
+const WEIGHTS: &str = "target/own_problem.folded";
+
 #[allow(dead_code)]
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let seed: u64 = std::env::args().nth(1).map(|s| s.parse()).transpose()?.unwrap_or(1);
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let seed_at = |i: usize| -> Result<u64, Box<dyn std::error::Error>> { Ok(args.get(i).map(|s| s.parse()).transpose()?.unwrap_or(1)) };
+    match args.first().map(String::as_str).unwrap_or("train") {
+        "train" => train_and_bench(seed_at(1)?),
+        "sample" => {
+            let file = args.get(1).ok_or("usage: own_problem sample FILE [seed]")?;
+            let (p, _) = scene(&mut ChaCha8Rng::seed_from_u64(seed_at(2)?));
+            let rows: Vec<String> = (0..6).map(|i| format!(r#"{{"f": {:?}, "p": {:?}}}"#, &p.as_slice()[6 * i..6 * i + 3], &p.as_slice()[6 * i + 3..6 * i + 6])).collect();
+            std::fs::write(file, format!("{{\"correspondences\": [\n  {}\n]}}\n", rows.join(",\n  ")))?;
+            println!("wrote {file}");
+            Ok(())
+        }
+        "solve" => {
+            let file = args.get(1).ok_or("usage: own_problem solve FILE")?;
+            let text = std::fs::read_to_string(file)?;
+            let p = simhc_problems::input::parse_layout_params(&Pnp::LAYOUT, &text).map_err(|e| format!("{file}: {e}"))?;
+            let network = simhc::regressor::FoldedNetwork::from_bytes(&std::fs::read(WEIGHTS).map_err(|e| format!("{WEIGHTS}: {e} (run `train` first)"))?)?;
+            let learned = LearnedStart::new(network, Pnp::LAYOUT)?;
+            let (target, simulator) = (ParameterVector::<Pnp>::new(), Generic(MinNormSimulator::<Pnp>::new()));
+            let starts: [&dyn StartProvider<Params, 7>; 1] = [&learned];
+            let schedule = [Attempt { provider: 0, method: Method::GaussNewton }, Attempt { provider: 0, method: Method::SimulatorHc }];
+            let pipeline = Pipeline::<Pnp, _, _, _, _, 7, 19, 36, { Pnp::NC }>::new(&target, &starts, &simulator, &Reprojection).with_schedule(&schedule);
+            let solved = pipeline.solve(&Params::from_column_slice(&p)).map_err(|e| format!("{file}: {e}"))?;
+            let x = solved.x;
+            println!("{{\"q\": {:?}, \"t\": {:?}, \"validated\": true, \"largest_angle_rad\": {:e}}}", &x.as_slice()[..4], &x.as_slice()[4..], solved.check.1);
+            Ok(())
+        }
+        other => Err(format!("unknown command `{other}`: train [seed] | sample FILE [seed] | solve FILE").into()),
+    }
+}
+
+fn train_and_bench(seed: u64) -> Result<(), Box<dyn std::error::Error>> {
     println!("own_problem: central PnP, 6 correspondences, seed {seed}");
     let config = LearnedStartConfig {
         samples: 100_000,
@@ -155,7 +195,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let trained = train(&config)?;
     println!("trained {} samples x {} epochs in {:.1} s", config.samples, config.train.epochs, trained.run.train_seconds);
-    let weights = std::path::Path::new("target/own_problem.folded");
+    let weights = std::path::Path::new(WEIGHTS);
     std::fs::write(weights, trained.start.network().to_bytes())?;
     println!("weights: {} (load with FoldedNetwork::from_bytes, then LearnedStart::new(network, Pnp::LAYOUT))", weights.display());
 

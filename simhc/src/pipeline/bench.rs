@@ -37,33 +37,60 @@ impl BenchRow {
     }
 }
 
+/// Where one trial's result is counted.
+enum Outcome {
+    Solved,
+    Wrong,
+    Flagged,
+    Failed,
+}
+
+/// Times `run` on every trial and counts `classify` of its result (not timed).
+fn tally<D, R, const NX: usize>(
+    name: &str,
+    trials: &[(D, SVector<f64, NX>)],
+    mut run: impl FnMut(&D) -> R,
+    classify: impl Fn(R, &SVector<f64, NX>) -> Outcome,
+) -> BenchRow {
+    let mut row = BenchRow { name: name.to_string(), trials: trials.len(), solved: 0, wrong: 0, flagged: 0, failed: 0, median_us: f64::NAN, mean_us: f64::NAN };
+    let mut micros = Vec::with_capacity(trials.len());
+    for (data, truth) in trials {
+        let t = Instant::now();
+        let result = run(data);
+        micros.push(t.elapsed().as_secs_f64() * 1e6);
+        match classify(result, truth) {
+            Outcome::Solved => row.solved += 1,
+            Outcome::Wrong => row.wrong += 1,
+            Outcome::Flagged => row.flagged += 1,
+            Outcome::Failed => row.failed += 1,
+        }
+    }
+    if !micros.is_empty() {
+        row.mean_us = micros.iter().sum::<f64>() / micros.len() as f64;
+        micros.sort_by(f64::total_cmp);
+        row.median_us = micros[micros.len() / 2];
+    }
+    row
+}
+
 /// Runs `solve` on every trial `(data, truth)`; `correct(x, truth)` is the bench's criterion.
 pub fn bench_row<D, C, E, F, const NX: usize>(
     name: &str,
     trials: &[(D, SVector<f64, NX>)],
     correct: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
-    mut solve: F,
+    solve: F,
 ) -> BenchRow
 where
     E: std::error::Error,
     C: std::fmt::Debug,
     F: FnMut(&D) -> Result<Solved<C, NX>, PipelineError<E, C, NX>>,
 {
-    let mut row = BenchRow { name: name.to_string(), trials: trials.len(), solved: 0, wrong: 0, flagged: 0, failed: 0, median_us: f64::NAN, mean_us: f64::NAN };
-    let mut micros = Vec::with_capacity(trials.len());
-    for (data, truth) in trials {
-        let t = Instant::now();
-        let result = solve(data);
-        micros.push(t.elapsed().as_secs_f64() * 1e6);
-        match result {
-            Ok(s) if correct(&s.x, truth) => row.solved += 1,
-            Ok(_) => row.wrong += 1,
-            Err(PipelineError::NotValidated(_)) => row.flagged += 1,
-            Err(_) => row.failed += 1,
-        }
-    }
-    set_times(&mut row, micros);
-    row
+    tally(name, trials, solve, |result, truth| match result {
+        Ok(s) if correct(&s.x, truth) => Outcome::Solved,
+        Ok(_) => Outcome::Wrong,
+        Err(PipelineError::NotValidated(_)) => Outcome::Flagged,
+        Err(_) => Outcome::Failed,
+    })
 }
 
 /// A row for an estimate that is not validated (a start alone, "Pred Initial"): `estimate`
@@ -72,31 +99,13 @@ pub fn bench_estimate_row<D, const NX: usize>(
     name: &str,
     trials: &[(D, SVector<f64, NX>)],
     correct: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
-    mut estimate: impl FnMut(&D) -> Option<SVector<f64, NX>>,
+    estimate: impl FnMut(&D) -> Option<SVector<f64, NX>>,
 ) -> BenchRow {
-    let mut row = BenchRow { name: name.to_string(), trials: trials.len(), solved: 0, wrong: 0, flagged: 0, failed: 0, median_us: f64::NAN, mean_us: f64::NAN };
-    let mut micros = Vec::with_capacity(trials.len());
-    for (data, truth) in trials {
-        let t = Instant::now();
-        let x = estimate(data);
-        micros.push(t.elapsed().as_secs_f64() * 1e6);
-        match x {
-            Some(x) if correct(&x, truth) => row.solved += 1,
-            Some(_) => row.wrong += 1,
-            None => row.failed += 1,
-        }
-    }
-    set_times(&mut row, micros);
-    row
-}
-
-fn set_times(row: &mut BenchRow, mut micros: Vec<f64>) {
-    if micros.is_empty() {
-        return;
-    }
-    row.mean_us = micros.iter().sum::<f64>() / micros.len() as f64;
-    micros.sort_by(f64::total_cmp);
-    row.median_us = micros[micros.len() / 2];
+    tally(name, trials, estimate, |x, truth| match x {
+        Some(x) if correct(&x, truth) => Outcome::Solved,
+        Some(_) => Outcome::Wrong,
+        None => Outcome::Failed,
+    })
 }
 
 /// The rows as a text table.

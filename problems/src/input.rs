@@ -374,9 +374,9 @@ mod tests {
         use simhc::ProblemLayout;
         let layout = crate::grps::Grps7::LAYOUT;
         let row = r#"{"f": [0, 0, 1], "v": [0, 0, 0], "fp": [0, 0, 1], "vp": [1, 0, 0]}"#;
-        let seven = vec![row; 7].join(", ");
+        let seven = [row; 7].join(", ");
         assert!(parse_layout_params(&layout, &format!(r#"{{"correspondences": [{seven}]}}"#)).is_ok());
-        let e = parse_layout_params(&layout, &format!(r#"{{"correspondences": [{}]}}"#, vec![row; 6].join(", "))).unwrap_err();
+        let e = parse_layout_params(&layout, &format!(r#"{{"correspondences": [{}]}}"#, [row; 6].join(", "))).unwrap_err();
         assert_eq!(e.to_string(), "field `correspondences`: expected 7 correspondences, got 6");
         let mut rows = vec![row.to_string(); 7];
         rows[3] = row.replace(r#""vp": [1, 0, 0]"#, r#""vp": [1, 0]"#);

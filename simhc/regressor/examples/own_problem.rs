@@ -80,7 +80,8 @@ impl Validator<Params, 7> for Reprojection {
         for i in 0..6 {
             let f = Vector3::new(p[6 * i], p[6 * i + 1], p[6 * i + 2]);
             let y = r * Vector3::new(p[6 * i + 3], p[6 * i + 4], p[6 * i + 5]) + t;
-            behind += usize::from(!(f.dot(&y) > 0.0));
+            // NaN counts as behind.
+            behind += usize::from(f.dot(&y).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater));
             let a = f.cross(&y).norm().atan2(f.dot(&y));
             worst = if a.is_nan() { f64::INFINITY } else { worst.max(a) };
         }

@@ -103,11 +103,11 @@ impl Dag {
     pub fn mul(&mut self, a: NodeId, b: NodeId) -> NodeId {
         match (self.const_value(a), self.const_value(b)) {
             (Some(x), Some(y)) => self.constant(x * y),
-            (Some(c), _) | (_, Some(c)) if c == 0.0 => self.constant(0.0),
-            (Some(c), _) if c == 1.0 => b,
-            (_, Some(c)) if c == 1.0 => a,
-            (Some(c), _) if c == -1.0 => self.intern(Node::Neg(b)),
-            (_, Some(c)) if c == -1.0 => self.intern(Node::Neg(a)),
+            (Some(0.0), _) | (_, Some(0.0)) => self.constant(0.0),
+            (Some(1.0), _) => b,
+            (_, Some(1.0)) => a,
+            (Some(-1.0), _) => self.intern(Node::Neg(b)),
+            (_, Some(-1.0)) => self.intern(Node::Neg(a)),
             _ => self.intern(Node::Mul(a, b)),
         }
     }
@@ -266,8 +266,8 @@ impl Dag {
     pub fn add(&mut self, a: NodeId, b: NodeId) -> NodeId {
         match (self.const_value(a), self.const_value(b)) {
             (Some(x), Some(y)) => self.constant(x + y),
-            (Some(z), _) if z == 0.0 => b,
-            (_, Some(z)) if z == 0.0 => a,
+            (Some(0.0), _) => b,
+            (_, Some(0.0)) => a,
             _ => self.intern(Node::Add(a, b)),
         }
     }
@@ -327,8 +327,8 @@ impl Dag {
     pub fn minus(&mut self, a: NodeId, b: NodeId) -> NodeId {
         match (self.const_value(a), self.const_value(b)) {
             (Some(x), Some(y)) => return self.constant(x - y),
-            (_, Some(z)) if z == 0.0 => return a,
-            (Some(z), _) if z == 0.0 => return self.neg(b),
+            (_, Some(0.0)) => return a,
+            (Some(0.0), _) => return self.neg(b),
             _ => {}
         }
         match (self.negated_operand(a), self.negated_operand(b)) {

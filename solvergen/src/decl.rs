@@ -282,7 +282,7 @@ fn generic_usizes(cx: &mut Ctxt, seg: &syn::PathSegment, want: usize) -> Option<
         }
     }
     if sizes.len() != want {
-        cx.error_spanned_by(&args, format!("expected {want} size argument(s)"));
+        cx.error_spanned_by(args, format!("expected {want} size argument(s)"));
         return None;
     }
     Some(sizes)

@@ -286,7 +286,7 @@ pub fn evaluate<A: Algebra>(
     let mut global_eqs = 0;
     if let Some(eqs) = &decl.global_equations {
         let mut scope = base.clone();
-        let mut ev = Evaluator { alg: &mut *alg, cx: cx.as_deref_mut(), scope: &mut scope };
+        let mut ev = Evaluator { alg: &mut *alg, cx, scope: &mut scope };
         let g = ev.equation_fn(eqs);
         global_eqs = g.len();
         equations.extend(g);

@@ -244,7 +244,7 @@ mod tests {
             let jobs: Vec<PathJob> = std::iter::from_fn(|| queue.next()).collect();
             assert_eq!(jobs.len(), results.len());
             for &i in &order {
-                queue.finished(jobs[i], results[i].clone());
+                queue.finished(jobs[i], results[i]);
             }
             let mut flagged: Vec<usize> = std::iter::from_fn(|| queue.next())
                 .map(|job| {
@@ -278,7 +278,7 @@ mod tests {
             let mut queue = RepairQueue::<3>::new(&indices, true, None, 0.1);
             let jobs = [queue.next().unwrap(), queue.next().unwrap()];
             for i in order {
-                queue.finished(jobs[i], results[i].clone());
+                queue.finished(jobs[i], results[i]);
             }
             assert_eq!(queue.next(), None, "finishing order {order:?}");
         }
@@ -293,7 +293,7 @@ mod tests {
         while let Some(job) = queue.next() {
             assert_eq!(job.settings, 0);
             starts.push(job.start);
-            queue.finished(job, results[job.id].clone());
+            queue.finished(job, results[job.id]);
         }
         assert_eq!(starts, indices);
         assert_eq!(queue.into_results().0, results);

@@ -30,7 +30,6 @@ use crate::homotopy::ParameterHomotopy;
 use crate::tracker::{track, TrackerOptions};
 use crate::{ParamDerivative, Scalar};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
-use num_complex::Complex;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -38,7 +37,7 @@ use std::time::{Duration, Instant};
 use thiserror::Error;
 
 /// The complex scalar.
-pub type C = Complex<f64>;
+pub use crate::scalar::C;
 
 /// The sign symmetry `x_i -> -x_i` for the listed indices (all other coordinates fixed), e.g.
 /// `q -> -q` for a quaternion in `x[0..4]`.

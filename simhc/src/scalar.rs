@@ -3,6 +3,9 @@
 use nalgebra::ComplexField;
 use num_complex::Complex;
 
+/// The complex scalar of all-roots tracking, monodromy and the batch tracker.
+pub type C = Complex<f64>;
+
 /// A field element that generated residuals and Jacobians are evaluated in.
 ///
 /// Implemented for `f64` (real single-path tracking) and `Complex<f64>` (all-roots tracking and

@@ -1,7 +1,6 @@
 //! Error collection: every problem in a declaration is reported at once, each at the user's
 //! tokens (the `serde_derive` `internals/ctxt.rs` pattern).
 
-use proc_macro2::TokenStream;
 use quote::ToTokens;
 use std::fmt::Display;
 
@@ -48,14 +47,6 @@ impl Ctxt {
                 }
                 Err(first)
             }
-        }
-    }
-
-    /// The errors as `compile_error!` invocations.
-    pub fn into_compile_errors(mut self) -> TokenStream {
-        match self.check() {
-            Ok(()) => TokenStream::new(),
-            Err(e) => e.to_compile_error(),
         }
     }
 }

@@ -169,9 +169,7 @@ impl<S: Scalar, const N: usize> LaneLu<S, N> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Complex;
-
-    type C = Complex<f64>;
+    use crate::scalar::C;
 
     fn matrix(seed: u64) -> SMatrix<C, 8, 8> {
         // A deterministic, well-conditioned but pivot-needing matrix.

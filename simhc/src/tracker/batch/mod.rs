@@ -32,13 +32,13 @@ use super::{TrackError, TrackResult, TrackStats, Trouble, OMEGA_NOISE_FLOOR};
 use crate::homotopy::Homotopy;
 use crate::lanes::{dispatch, Kernel, Lanes};
 use crate::CoefficientForm;
-use nalgebra::{Complex, SVector};
+use nalgebra::SVector;
 use std::marker::PhantomData;
 use wide::{horner, solve_lanes, Factor, Wide};
 
 mod wide;
 
-type C = Complex<f64>;
+use crate::scalar::C;
 
 /// `H(x, t)` for path lanes, in one of two forms:
 /// - [`LaneSystem::new`]: `F_c(x; c(t))` with `c(t) = sum_k t^k c_k`, problem `P`'s generated

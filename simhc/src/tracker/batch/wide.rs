@@ -13,10 +13,9 @@
 //!   from unfused arithmetic by rounding only; on one machine they do not depend on the batch.
 
 use crate::lanes::Lanes;
-use nalgebra::Complex;
 use std::ops::{Add, Mul, Neg, Sub};
 
-type C = Complex<f64>;
+use crate::scalar::C;
 
 /// `W` complex numbers, real and imaginary parts apart; products fused when `FMA`.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -241,6 +241,29 @@ mod tests {
         }
     }
 
+    /// A bad sampler is a typed error naming the sample, before any training.
+    #[test]
+    fn bad_samples_are_typed_errors() {
+        use simhc::layout::FieldLayout;
+        const UNKNOWNS: &[FieldLayout] = &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "s", kind: FieldKind::Scalar, offset: 4 }];
+        const ROW: &[FieldLayout] = &[FieldLayout { name: "f", kind: FieldKind::Vector(3), offset: 0 }];
+        let layout = Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 2, per_row: 3 };
+        let config = LearnedStartConfig { samples: 4, ..LearnedStartConfig::default() };
+        let good = |_: &mut ChaCha8Rng| (vec![0.1; 6], vec![1.0, 0.0, 0.0, 0.0, 2.0]);
+        let mut calls = 0;
+        let short = train_learned_start(&layout, &config, |rng| {
+            calls += 1;
+            if calls == 3 { (vec![0.1; 5], vec![1.0, 0.0, 0.0, 0.0, 2.0]) } else { good(rng) }
+        });
+        assert!(matches!(short, Err(LearnedStartError::Length { index: 2, what: "parameters", got: 5, expected: 6 })), "{short:?}");
+        let unknowns = train_learned_start(&layout, &config, |_| (vec![0.1; 6], vec![1.0, 0.0, 0.0, 0.0]));
+        assert!(matches!(unknowns, Err(LearnedStartError::Length { index: 0, what: "unknowns", got: 4, expected: 5 })));
+        let nan = train_learned_start(&layout, &config, |_| (vec![0.1, f64::NAN, 0.1, 0.1, 0.1, 0.1], vec![1.0, 0.0, 0.0, 0.0, 2.0]));
+        assert!(matches!(nan, Err(LearnedStartError::NonFinite { index: 0 })));
+        let zero_quaternion = train_learned_start(&layout, &config, |_| (vec![0.1; 6], vec![0.0, 0.0, 0.0, 0.0, 2.0]));
+        assert!(matches!(zero_quaternion, Err(LearnedStartError::NonFinite { index: 0 })));
+    }
+
     #[test]
     fn constant_columns_get_unit_scale() {
         let s = Standardization::of([vec![1.0, 5.0], vec![5.0, 5.0]].iter().map(|r| r.iter().copied()), 2);

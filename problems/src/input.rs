@@ -216,24 +216,12 @@ pub fn parse_layout_params(layout: &Layout, text: &str) -> Result<Vec<f64>, Inpu
 }
 
 /// Appends the scalars of one field of kind `kind` (see [`parse_layout_params`]).
-fn field_values(value: &Value, kind: FieldKind, at: Location, out: &mut Vec<f64>) -> Result<(), InputError> {
-    let numbers = |value: &Value, n: usize, at: &Location| -> Result<Vec<f64>, InputError> {
-        let expected = format!("an array of {n} numbers");
-        let items = value.as_array().ok_or_else(|| shape(at.clone(), expected.clone(), value))?;
-        if items.len() != n {
-            return Err(InputError::Shape { at: at.clone(), expected, got: format!("an array of {}", items.len()) });
-        }
-        items
-            .iter()
-            .enumerate()
-            .map(|(k, item)| item.as_f64().ok_or_else(|| InputError::Shape { at: at.clone(), expected: expected.clone(), got: format!("{} at index {k}", kind_of(item)) }))
-            .collect()
-    };
+fn field_values(value: &Value, field_kind: FieldKind, at: Location, out: &mut Vec<f64>) -> Result<(), InputError> {
     let matrix = |value: &Value, r: usize, c: usize| -> Result<Vec<Vec<f64>>, InputError> {
         let rows = value.as_array().filter(|rows| rows.len() == r).ok_or_else(|| shape(at.clone(), format!("an array of {r} rows"), value))?;
         rows.iter().enumerate().map(|(i, row)| numbers(row, c, &Location { row: Some(i), ..at.clone() })).collect()
     };
-    match kind {
+    match field_kind {
         FieldKind::Scalar => out.push(value.as_f64().ok_or_else(|| shape(at.clone(), "a number", value))?),
         FieldKind::Vector(n) => out.extend(numbers(value, n, &at)?),
         FieldKind::Quat => out.extend(numbers(value, 4, &at)?),
@@ -252,10 +240,6 @@ fn field_values(value: &Value, kind: FieldKind, at: Location, out: &mut Vec<f64>
         }
     }
     Ok(())
-}
-
-fn kind_of(value: &Value) -> &'static str {
-    kind(value)
 }
 
 fn parse(text: &str) -> Result<Value, InputError> {
@@ -298,16 +282,22 @@ fn correspondences<C: VectorFields>(list: &Value, at: &Location) -> Result<Vec<C
 }
 
 fn vector(value: &Value, at: Location) -> Result<[f64; 3], InputError> {
-    let expected = "an array of 3 numbers";
-    let items = value.as_array().ok_or_else(|| shape(at.clone(), expected, value))?;
-    if items.len() != 3 {
-        return Err(InputError::Shape { at, expected: expected.to_string(), got: format!("an array of {}", items.len()) });
+    let v = numbers(value, 3, &at)?;
+    Ok([v[0], v[1], v[2]])
+}
+
+/// An array of exactly `n` numbers at `at`.
+fn numbers(value: &Value, n: usize, at: &Location) -> Result<Vec<f64>, InputError> {
+    let expected = format!("an array of {n} numbers");
+    let items = value.as_array().ok_or_else(|| shape(at.clone(), expected.clone(), value))?;
+    if items.len() != n {
+        return Err(InputError::Shape { at: at.clone(), expected, got: format!("an array of {}", items.len()) });
     }
-    let mut out = [0.0; 3];
-    for (k, item) in items.iter().enumerate() {
-        out[k] = item.as_f64().ok_or_else(|| InputError::Shape { at: at.clone(), expected: expected.to_string(), got: format!("{} at index {k}", kind(item)) })?;
-    }
-    Ok(out)
+    items
+        .iter()
+        .enumerate()
+        .map(|(k, item)| item.as_f64().ok_or_else(|| InputError::Shape { at: at.clone(), expected: expected.clone(), got: format!("{} at index {k}", kind(item)) }))
+        .collect()
 }
 
 fn check_fields(map: &serde_json::Map<String, Value>, fields: &[&str], at: &Location) -> Result<(), InputError> {

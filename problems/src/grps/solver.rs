@@ -796,15 +796,10 @@ where
     let (x, stats) = match method {
         Method::AllRoots => return Err(AttemptError::NotAPose),
         Method::GaussNewton => {
-            let r = solve_newton::<P, f64, 8, NF, NP>(&x0, &p1, &options.newton);
+            // The pipeline's acceptance rule: converged, or a last update below 1e-7.
+            let r = simhc::pipeline::path::gauss_newton::<P, 8, NF, NP>(&x0, &p1, &options.newton);
             times.tracking += ts.elapsed();
-            let r = r?;
-            // On noisy data the least-squares point has a non-zero residual and Gauss-Newton
-            // converges linearly: accept a small last update, validation decides the rest.
-            if !r.converged && (r.accuracy.is_nan() || r.accuracy > 1e-7) {
-                return Err(TrackError::CorrectorDidNotConverge { t: 1.0 }.into());
-            }
-            (r.x, TrackStats { newton_iterations: r.iterations, ..TrackStats::default() })
+            r?
         }
         Method::Hc(kind) => {
             let p0 = match kind {

@@ -171,7 +171,12 @@ where
             let attempt = x0.map_err(AttemptError::from).and_then(|x0| {
                 let end = match method {
                     Method::SimulatorHc => simulator_hc::<P, D, S, NX, NF, NP, NC>(data, self.simulator, &x0, &p, &o.tracker, &mut times),
-                    Method::GaussNewton => gauss_newton::<P, NX, NF, NP>(&x0, &p, &o.newton, &mut times),
+                    Method::GaussNewton => {
+                        let t = Instant::now();
+                        let end = gauss_newton::<P, NX, NF, NP>(&x0, &p, &o.newton);
+                        times.tracking += t.elapsed();
+                        end.map_err(AttemptError::from)
+                    }
                 };
                 end.map(|r| (x0, r))
             });

@@ -39,22 +39,18 @@ where
 
 /// Gauss-Newton from `x0` on the target parameters `p`. Accepted when it converged or its last
 /// update is below `1e-7` (on noisy overdetermined systems Gauss-Newton converges linearly at
-/// the least-squares point); validation decides the rest.
+/// the least-squares point); validation decides the rest. The caller times it.
 pub fn gauss_newton<P, const NX: usize, const NF: usize, const NP: usize>(
     x0: &SVector<f64, NX>,
     p: &SVector<f64, NP>,
     options: &NewtonOptions,
-    times: &mut StageTimes,
-) -> Result<(SVector<f64, NX>, TrackStats), AttemptError>
+) -> Result<(SVector<f64, NX>, TrackStats), TrackError>
 where
     P: crate::Problem<NX, NF, NP>,
 {
-    let t = Instant::now();
-    let r = solve_newton::<P, f64, NX, NF, NP>(x0, p, options);
-    times.tracking += t.elapsed();
-    let r = r?;
+    let r = solve_newton::<P, f64, NX, NF, NP>(x0, p, options)?;
     if !r.converged && (r.accuracy.is_nan() || r.accuracy > 1e-7) {
-        return Err(TrackError::CorrectorDidNotConverge { t: 1.0 }.into());
+        return Err(TrackError::CorrectorDidNotConverge { t: 1.0 });
     }
     Ok((r.x, TrackStats { newton_iterations: r.iterations, ..TrackStats::default() }))
 }

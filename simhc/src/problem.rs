@@ -19,6 +19,11 @@ pub trait ProblemInfo {
 }
 
 /// Residual and Jacobian of `F(x; p)` with respect to the unknowns `x`.
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` is not a compiled instance with NX = {NX} unknowns, NF = {NF} equations and NP = {NP} parameters",
+    label = "sizes differ from this instance's",
+    note = "the sizes of a `#[simhc_problem]` instance are in its docs and in `Foo::NX`, `Foo::NF`, `Foo::NP`"
+)]
 pub trait Problem<const NX: usize, const NF: usize, const NP: usize>: ProblemInfo {
     /// `F(x; p)`.
     fn residual<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, f: &mut SVector<S, NF>);
@@ -77,6 +82,11 @@ pub struct ParamRowLayout {
 /// The paper's straight-line homotopy `(1-t) F(x; p0) + t F(x; p1)` is then
 /// `Fc(x; c0 + t (c1 - c0))`: one evaluation per step instead of two, and the coefficients are
 /// computed once per path ([`crate::homotopy::CoefficientLine`]).
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` is not a compiled instance with NX = {NX} unknowns, NF = {NF} equations, NP = {NP} parameters and NC = {NC} coefficients",
+    label = "sizes differ from this instance's",
+    note = "the sizes of a `#[simhc_problem]` instance are in its docs and in `Foo::NX`, `Foo::NF`, `Foo::NP`, `Foo::NC`"
+)]
 pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, const NC: usize>:
     Problem<NX, NF, NP>
 {

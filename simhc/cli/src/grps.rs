@@ -356,7 +356,7 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
     let all_roots_trials = args.all_roots.min(trials.len());
     let mut all_roots = MethodRecord::new("All-roots HC 7 pts (1 thread)");
     let all_roots_options = AllRootsOptions::default();
-    let bar = crate::progress_bar(trials.len() as u64, progress);
+    let bar = crate::app::progress_bar(trials.len() as u64, progress);
     for (i, scene) in trials.iter().enumerate() {
         let c8: &[GrpsCorrespondence] = &scene.correspondences[..8.min(scene.correspondences.len())];
         let c7 = &c8[..7.min(c8.len())];
@@ -469,7 +469,7 @@ fn starts(trials: &[GrpsScene], seed: u64, progress: bool) -> Result<Vec<StartCe
     let newton = GrpsSolverOptions::default().newton;
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(2));
     let mut cells = Vec::new();
-    let bar = crate::progress_bar((START_ANGLES.len() * trials.len()) as u64, progress);
+    let bar = crate::app::progress_bar((START_ANGLES.len() * trials.len()) as u64, progress);
     for angle in START_ANGLES {
         let mut oks = vec![0usize; methods.len()];
         let mut times: Vec<Vec<f64>> = vec![Vec::new(); methods.len()];
@@ -519,7 +519,7 @@ pub const NOISE_CAMERAS: [usize; 3] = [1, 3, 5];
 
 fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>) -> Result<Vec<NoiseRow>, String> {
     let mut rows = Vec::new();
-    let bar = crate::progress_bar((NOISE_LEVELS.len() * NOISE_CAMERAS.len() * args.noise_trials) as u64, progress);
+    let bar = crate::app::progress_bar((NOISE_LEVELS.len() * NOISE_CAMERAS.len() * args.noise_trials) as u64, progress);
     for cameras in NOISE_CAMERAS {
         for noise_px in NOISE_LEVELS {
             let config = GrpsSceneConfig { cameras_per_view: cameras, noise_px, ..GrpsSceneConfig::default() };
@@ -623,7 +623,7 @@ fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<Ransac
     let mut estimator = GrpsEstimator::new(minimal, args.ransac_sample);
     estimator.hypotheses = args.ransac_hypotheses;
     let mut rows = Vec::new();
-    let bar = crate::progress_bar((OUTLIER_RATIOS.len() * args.ransac_trials) as u64, progress);
+    let bar = crate::app::progress_bar((OUTLIER_RATIOS.len() * args.ransac_trials) as u64, progress);
     for ratio in OUTLIER_RATIOS {
         let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(200 + (ratio * 100.0) as u64));
         let (mut succ, mut succ_all) = (0usize, 0usize);

@@ -159,7 +159,7 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
     let mut all_roots = MethodRecord::new(ALL_ROOTS_ROW);
     let mut shipped_attempts = [0usize; 3];
     let all_roots_options = simhc::all_roots::AllRootsOptions::default();
-    let bar = crate::progress_bar(trials.len() as u64, progress);
+    let bar = crate::app::progress_bar(trials.len() as u64, progress);
     for scene in trials {
         let corrs: &[UpnpCorrespondence] = &scene.correspondences;
 

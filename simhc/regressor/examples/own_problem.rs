@@ -137,11 +137,11 @@ pub fn bench(learned: &LearnedStart, scenes: &[(Params, Unknowns)], seed: u64) -
     let starts: [&dyn StartProvider<Params, 7>; 2] = [learned, &random];
     let run = |name: &str, schedule: &[Attempt]| {
         let p = Pipeline::<Pnp, _, _, _, _, 7, 19, 36, { Pnp::NC }>::new(&target, &starts, &simulator, &Reprojection).with_schedule(schedule);
-        bench_row(name, scenes, correct, |d| p.solve(d))
+        bench_row(name, scenes, &correct, |d| p.solve(d))
     };
     let (pred, rand) = (0, 1);
     vec![
-        bench_estimate_row("Pred Initial", scenes, correct, |p| StartProvider::<Params, 7>::start(learned, p).ok()),
+        bench_estimate_row("Pred Initial", scenes, &correct, |p| StartProvider::<Params, 7>::start(learned, p).ok()),
         run("Pred + Gauss-Newton", &[Attempt { provider: pred, method: Method::GaussNewton }]),
         run("Rand + Sim HC", &[Attempt { provider: rand, method: Method::SimulatorHc }]),
         run("Pred + Sim HC (one path)", &[Attempt { provider: pred, method: Method::SimulatorHc }]),

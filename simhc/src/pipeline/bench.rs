@@ -28,6 +28,33 @@ pub struct BenchRow {
     pub median_us: f64,
     /// Mean solve time, microseconds.
     pub mean_us: f64,
+    /// Median of each error of the [`Score`] over the returned estimates (validated or not,
+    /// flagged excluded), with its name.
+    pub median_errors: Vec<(&'static str, f64)>,
+}
+
+/// How a bench scores an estimate against the truth: named errors (for the table) and the
+/// success criterion. Any `Fn(&x, &truth) -> bool` is a score without named errors.
+pub trait Score<const NX: usize> {
+    /// Names of the errors, for example `["E_R deg", "E_t %"]`.
+    fn names(&self) -> &[&'static str] {
+        &[]
+    }
+    /// The errors of `x` against `truth`, in the order of [`Score::names`].
+    fn errors(&self, _x: &SVector<f64, NX>, _truth: &SVector<f64, NX>) -> Vec<f64> {
+        Vec::new()
+    }
+    /// Whether `x` counts as a correct solution.
+    fn correct(&self, x: &SVector<f64, NX>, truth: &SVector<f64, NX>) -> bool;
+}
+
+impl<F, const NX: usize> Score<NX> for F
+where
+    F: Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
+{
+    fn correct(&self, x: &SVector<f64, NX>, truth: &SVector<f64, NX>) -> bool {
+        self(x, truth)
+    }
 }
 
 impl BenchRow {
@@ -38,56 +65,77 @@ impl BenchRow {
 }
 
 /// Where one trial's result is counted.
-enum Outcome {
-    Solved,
-    Wrong,
+enum Outcome<const NX: usize> {
+    /// An estimate, scored against the truth.
+    Returned(SVector<f64, NX>),
     Flagged,
     Failed,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| !x.is_nan());
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 /// Times `run` on every trial and counts `classify` of its result (not timed).
 fn tally<D, R, const NX: usize>(
     name: &str,
     trials: &[(D, SVector<f64, NX>)],
+    score: &dyn Score<NX>,
     mut run: impl FnMut(&D) -> R,
-    classify: impl Fn(R, &SVector<f64, NX>) -> Outcome,
+    classify: impl Fn(R) -> Outcome<NX>,
 ) -> BenchRow {
-    let mut row = BenchRow { name: name.to_string(), trials: trials.len(), solved: 0, wrong: 0, flagged: 0, failed: 0, median_us: f64::NAN, mean_us: f64::NAN };
+    let mut row = BenchRow {
+        name: name.to_string(),
+        trials: trials.len(),
+        solved: 0,
+        wrong: 0,
+        flagged: 0,
+        failed: 0,
+        median_us: f64::NAN,
+        mean_us: f64::NAN,
+        median_errors: Vec::new(),
+    };
     let mut micros = Vec::with_capacity(trials.len());
+    let mut errors: Vec<Vec<f64>> = vec![Vec::new(); score.names().len()];
     for (data, truth) in trials {
         let t = Instant::now();
         let result = run(data);
         micros.push(t.elapsed().as_secs_f64() * 1e6);
-        match classify(result, truth) {
-            Outcome::Solved => row.solved += 1,
-            Outcome::Wrong => row.wrong += 1,
+        match classify(result) {
+            Outcome::Returned(x) => {
+                for (all, e) in errors.iter_mut().zip(score.errors(&x, truth)) {
+                    all.push(e);
+                }
+                if score.correct(&x, truth) {
+                    row.solved += 1;
+                } else {
+                    row.wrong += 1;
+                }
+            }
             Outcome::Flagged => row.flagged += 1,
             Outcome::Failed => row.failed += 1,
         }
     }
     if !micros.is_empty() {
         row.mean_us = micros.iter().sum::<f64>() / micros.len() as f64;
-        micros.sort_by(f64::total_cmp);
-        row.median_us = micros[micros.len() / 2];
+        row.median_us = median(micros);
     }
+    row.median_errors = score.names().iter().copied().zip(errors.into_iter().map(median)).collect();
     row
 }
 
-/// Runs `solve` on every trial `(data, truth)`; `correct(x, truth)` is the bench's criterion.
-pub fn bench_row<D, C, E, F, const NX: usize>(
-    name: &str,
-    trials: &[(D, SVector<f64, NX>)],
-    correct: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
-    solve: F,
-) -> BenchRow
+/// Runs `solve` on every trial `(data, truth)`; `score` is the bench's criterion (a closure
+/// `|x, truth| -> bool`, or a [`Score`] with named errors).
+pub fn bench_row<D, C, E, F, const NX: usize>(name: &str, trials: &[(D, SVector<f64, NX>)], score: &dyn Score<NX>, solve: F) -> BenchRow
 where
     E: std::error::Error,
     C: std::fmt::Debug,
     F: FnMut(&D) -> Result<Solved<C, NX>, PipelineError<E, C, NX>>,
 {
-    tally(name, trials, solve, |result, truth| match result {
-        Ok(s) if correct(&s.x, truth) => Outcome::Solved,
-        Ok(_) => Outcome::Wrong,
+    tally(name, trials, score, solve, |result| match result {
+        Ok(s) => Outcome::Returned(s.x),
         Err(PipelineError::NotValidated(_)) => Outcome::Flagged,
         Err(_) => Outcome::Failed,
     })
@@ -98,31 +146,29 @@ where
 pub fn bench_estimate_row<D, const NX: usize>(
     name: &str,
     trials: &[(D, SVector<f64, NX>)],
-    correct: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
+    score: &dyn Score<NX>,
     estimate: impl FnMut(&D) -> Option<SVector<f64, NX>>,
 ) -> BenchRow {
-    tally(name, trials, estimate, |x, truth| match x {
-        Some(x) if correct(&x, truth) => Outcome::Solved,
-        Some(_) => Outcome::Wrong,
+    tally(name, trials, score, estimate, |x| match x {
+        Some(x) => Outcome::Returned(x),
         None => Outcome::Failed,
     })
 }
 
-/// The rows as a text table.
+/// The rows as a text table (median errors after the counts, when the score names them).
 pub fn table(rows: &[BenchRow]) -> String {
-    let mut out = format!("{:<36} {:>7} {:>6} {:>6} {:>6} {:>9} {:>9}\n", "method", "succ%", "wrong", "flag", "fail", "t med us", "t mean us");
+    let names: Vec<&str> = rows.first().map(|r| r.median_errors.iter().map(|(n, _)| *n).collect()).unwrap_or_default();
+    let mut out = format!("{:<36} {:>7} {:>6} {:>6} {:>6}", "method", "succ%", "wrong", "flag", "fail");
+    for n in &names {
+        let _ = write!(out, " {:>10}", format!("med {n}"));
+    }
+    let _ = writeln!(out, " {:>9} {:>9}", "t med us", "t mean us");
     for r in rows {
-        let _ = writeln!(
-            out,
-            "{:<36} {:>7.1} {:>6} {:>6} {:>6} {:>9.1} {:>9.1}",
-            r.name,
-            r.success_pct(),
-            r.wrong,
-            r.flagged,
-            r.failed,
-            r.median_us,
-            r.mean_us
-        );
+        let _ = write!(out, "{:<36} {:>7.1} {:>6} {:>6} {:>6}", r.name, r.success_pct(), r.wrong, r.flagged, r.failed);
+        for (_, e) in &r.median_errors {
+            let _ = write!(out, " {e:>10.3e}");
+        }
+        let _ = writeln!(out, " {:>9.1} {:>9.1}", r.median_us, r.mean_us);
     }
     out
 }
@@ -149,7 +195,7 @@ mod tests {
             stats: TrackStats::default(),
             times: StageTimes::default(),
         };
-        let row = bench_row("r", &trials, |x, t| (x[0] - t[0]).abs() < 1e-9, |k: &u8| match k {
+        let row = bench_row("r", &trials, &|x: &SVector<f64, 1>, t: &SVector<f64, 1>| (x[0] - t[0]).abs() < 1e-9, |k: &u8| match k {
             0 => Ok(solved(1.0)),
             1 => Ok(solved(2.0)),
             2 => Err(PipelineError::<Bad, (), 1>::NotValidated(Box::new(solved(3.0)))),
@@ -158,7 +204,7 @@ mod tests {
         assert_eq!((row.solved, row.wrong, row.flagged, row.failed, row.trials), (1, 1, 1, 1, 4));
         assert!(row.median_us >= 0.0 && row.mean_us >= 0.0);
         assert_eq!(row.success_pct(), 25.0);
-        let est = bench_estimate_row("e", &trials, |x, t| (x[0] - t[0]).abs() < 1e-9, |k: &u8| (*k < 3).then(|| SVector::from([f64::from(*k)])));
+        let est = bench_estimate_row("e", &trials, &|x: &SVector<f64, 1>, t: &SVector<f64, 1>| (x[0] - t[0]).abs() < 1e-9, |k: &u8| (*k < 3).then(|| SVector::from([f64::from(*k)])));
         assert_eq!((est.solved, est.wrong, est.failed), (1, 2, 1));
         assert!(table(&[row, est]).lines().count() == 3);
     }

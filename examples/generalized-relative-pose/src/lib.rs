@@ -1,0 +1,254 @@
+//! Generalized relative pose with known scale, added to simhc through its public API only, by
+//! following the README's "Your own problem" tutorial.
+//!
+//! Two generalized cameras (rigs of several cameras) see the same points. Correspondence `i`
+//! is a ray `(v, f)` of rig 1 (a point on the ray and its unit direction) and a ray `(vp, fp)` of
+//! rig 2. The unknown pose maps rig-2 coordinates to rig-1 coordinates, `X1 = R X2 + t`, with
+//! `R = rotation(q)`. Both rays meet at the point, so `f`, `R fp` and `R vp + t - v` are
+//! coplanar: one equation per correspondence. Six give 64 solutions (modulo `q -> -q`); the
+//! solver uses six plus one that validates, as the paper's 8-point GRPS solver does.
+
+use nalgebra::{Matrix3, SVector, UnitQuaternion, Vector3, Vector4};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use simhc::pipeline::{Validator, Verdict};
+use simhc::pipeline::path::gauss_newton;
+use simhc_cli::{AllRoots, DeclaredProblem, Refinement, SquareSubsystem};
+
+/// 1. The declaration. `Grp7` is solved (6 rows determine the pose, the 7th validates);
+///    `Grp6` is the square system of the start system and the all-roots fallback.
+#[simhc::simhc_problem]
+pub mod grp {
+    pub struct Unknowns {
+        q: Quat,
+        t: Vec3,
+    }
+    pub struct Row {
+        f: Vec3,
+        v: Vec3,
+        fp: Vec3,
+        vp: Vec3,
+    }
+    pub const ROWS: [usize; 2] = [6, 7];
+    pub fn row_equations() -> Scalar {
+        let r = rotation(q);
+        let rfp = r * fp;
+        t.dot(f.cross(rfp)) - f.dot(r * (skew(vp) * fp)) + f.dot(skew(v) * rfp)
+    }
+    pub fn global_equations() -> [Scalar; 1] {
+        [q.dot(q) - 1]
+    }
+}
+
+pub use grp::{Grp6, Grp7};
+
+/// Parameters of a 7-correspondence instance (7 rows of `f, v, fp, vp`).
+pub type Params = SVector<f64, 84>;
+/// The unknowns `[q, t]`.
+pub type Unknowns = SVector<f64, 7>;
+/// Focal length in pixels that converts `--noise` (pixels) to angles.
+pub const FOCAL_PX: f64 = 800.0;
+
+/// The shipped start system (`grp monodromy grp --output data/grp6_start.json`).
+pub static START_SYSTEM: &str = include_str!("../data/grp6_start.json");
+/// The shipped weights (`grp train grp --out weights/grp.folded`).
+pub static WEIGHTS: &[u8] = include_bytes!("../weights/grp.folded");
+
+/// The problem with its all-roots subsystem.
+pub struct GenRelPose {
+    all_roots: SquareSubsystem<Grp6, 7, 72, { Grp6::NC }>,
+}
+
+impl GenRelPose {
+    /// The problem with the shipped start system.
+    pub fn new() -> Self {
+        let all_roots = SquareSubsystem::new(Some(START_SYSTEM), Some(64)).expect("the shipped start system parses (tested)");
+        Self { all_roots }
+    }
+}
+
+impl Default for GenRelPose {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
+    let u2: f64 = rng.random();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A uniformly random rotation.
+pub fn random_rotation(rng: &mut ChaCha8Rng) -> UnitQuaternion<f64> {
+    let q = Vector4::from_fn(|_, _| gaussian(rng));
+    UnitQuaternion::from_quaternion(nalgebra::Quaternion::from_vector(q))
+}
+
+/// `f` moved by an angle of about `sigma` radians in a random tangent direction.
+fn perturb(f: Vector3<f64>, sigma: f64, rng: &mut ChaCha8Rng) -> Vector3<f64> {
+    if sigma == 0.0 {
+        return f;
+    }
+    let n = Vector3::from_fn(|_, _| gaussian(rng) * sigma);
+    (f + (n - f * f.dot(&n))).normalize()
+}
+
+fn row(p: &Params, i: usize) -> [Vector3<f64>; 4] {
+    std::array::from_fn(|k| Vector3::new(p[12 * i + 3 * k], p[12 * i + 3 * k + 1], p[12 * i + 3 * k + 2]))
+}
+
+fn set_row(p: &mut Params, i: usize, fields: [Vector3<f64>; 4]) {
+    for (k, v) in fields.iter().enumerate() {
+        for c in 0..3 {
+            p[12 * i + 3 * k + c] = v[c];
+        }
+    }
+}
+
+/// `(R, t)` of the unknowns (the quaternion normalized).
+pub fn pose(x: &Unknowns) -> (Matrix3<f64>, Vector3<f64>) {
+    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(x[0], x[1], x[2], x[3]));
+    (q.to_rotation_matrix().into_inner(), Vector3::new(x[4], x[5], x[6]))
+}
+
+fn unknowns(q: &UnitQuaternion<f64>, t: &Vector3<f64>) -> Unknowns {
+    SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z])
+}
+
+/// 2. The scene sampler: rig 1 at the origin with ray origins in `[-1, 1]^3`, points in
+///    `[-3, 3]^2 x [4, 10]`; rig 2 at any rotation and `t` in `[-1, 1]^3`, its ray origins in
+///    `[-1, 1]^3`; noise of `noise_px` pixels (focal [`FOCAL_PX`]) on every bearing.
+pub fn scene(rng: &mut ChaCha8Rng, noise_px: f64) -> (Params, Unknowns) {
+    let q = random_rotation(rng);
+    let r = q.to_rotation_matrix().into_inner();
+    let t = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+    let mut p = Params::zeros();
+    let sigma = noise_px / FOCAL_PX;
+    for i in 0..7 {
+        let x = Vector3::new(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0), rng.random_range(4.0..10.0));
+        let v = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        let vp = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        let f = perturb((x - v).normalize(), sigma, rng);
+        let fp = perturb((r.transpose() * (x - t) - vp).normalize(), sigma, rng);
+        set_row(&mut p, i, [f, v, fp, vp]);
+    }
+    (p, unknowns(&q, &t))
+}
+
+/// The same scene in random frames: rig 1 moved by `(R1, t1)`, rig 2 by `(R2, t2)` (any
+/// rotations, translations in `[-3, 3]^3`); the pose becomes `R1 R R2^T`, `R1 t + t1 - R' t2`.
+pub fn move_frames(rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> (Params, Unknowns) {
+    let (q1, q2) = (random_rotation(rng), random_rotation(rng));
+    let t1 = Vector3::from_fn(|_, _| rng.random_range(-3.0..3.0));
+    let t2 = Vector3::from_fn(|_, _| rng.random_range(-3.0..3.0));
+    let mut out = *p;
+    for i in 0..7 {
+        let [f, v, fp, vp] = row(p, i);
+        set_row(&mut out, i, [q1 * f, q1 * v + t1, q2 * fp, q2 * vp + t2]);
+    }
+    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(x[0], x[1], x[2], x[3]));
+    let q_new = q1 * q * q2.inverse();
+    let t = Vector3::new(x[4], x[5], x[6]);
+    let t_new = q1 * t + t1 - q_new * t2;
+    (out, unknowns(&q_new, &t_new))
+}
+
+/// 3. Validation: every correspondence's rays coplanar within the tolerance and meeting in
+///    front of both rigs.
+#[derive(Debug, Clone, Copy)]
+pub struct Coplanarity {
+    /// Largest accepted angle (radians) between a rig-1 bearing and the plane of its match.
+    pub tolerance: f64,
+}
+
+impl Coplanarity {
+    /// The tolerance for `noise_px` pixels of noise: `1e-7` rad plus 6 sigma of the two bearings.
+    pub fn for_noise(noise_px: f64) -> Self {
+        Self { tolerance: 1e-7 + 6.0 * std::f64::consts::SQRT_2 * noise_px / FOCAL_PX }
+    }
+}
+
+impl Validator<Params, 7> for Coplanarity {
+    /// (correspondences met behind a rig, largest angle to the plane in radians)
+    type Check = (usize, f64);
+
+    fn check(&self, p: &Params, x: &Unknowns) -> (usize, f64) {
+        let (r, t) = pose(x);
+        let (mut behind, mut worst) = (0, 0.0f64);
+        for i in 0..7 {
+            let [f, v, fp, vp] = row(p, i);
+            let (g, c2) = (r * fp, r * vp + t);
+            let n = g.cross(&(c2 - v));
+            let angle = if n.norm() > 0.0 { (f.dot(&n) / n.norm()).abs().asin() } else { 0.0 };
+            // Closest points of the two rays: v + lambda f and c2 + mu g.
+            let (b, w) = (f.dot(&g), v - c2);
+            let denom = 1.0 - b * b;
+            if denom > 1e-12 {
+                let lambda = (b * g.dot(&w) - f.dot(&w)) / denom;
+                let mu = g.dot(&w) + lambda * b;
+                // NaN counts as behind.
+                behind += usize::from(!(lambda > 0.0 && mu > 0.0));
+            }
+            worst = if angle.is_nan() { f64::INFINITY } else { worst.max(angle) };
+        }
+        (behind, worst)
+    }
+
+    fn verdict(&self, c: &(usize, f64)) -> Verdict {
+        if c.0 == 0 && c.1 <= self.tolerance {
+            Verdict::Accept
+        } else {
+            Verdict::Reject
+        }
+    }
+
+    fn better(&self, a: &(usize, f64), b: &(usize, f64)) -> bool {
+        a < b
+    }
+}
+
+/// Rotation error in degrees and relative translation error in percent.
+pub fn errors(x: &Unknowns, truth: &Unknowns) -> [f64; 2] {
+    let (r, t) = pose(x);
+    let (r0, t0) = pose(truth);
+    let c = ((r * r0.transpose()).trace() - 1.0) / 2.0;
+    [c.clamp(-1.0, 1.0).acos().to_degrees(), 100.0 * (t - t0).norm() / t0.norm()]
+}
+
+/// 4. The registration: what `grp train|bench|solve|monodromy grp` need. Paths are tracked on
+///    the first 6 correspondences (`Grp6`, square: 7 equations, 7 unknowns); all 7 are read by
+///    the learned start and checked by the validator.
+impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
+    type Tracked = Grp6;
+    type Data = Grp7;
+    type Validator = Coplanarity;
+    const NAME: &'static str = "grp";
+    const ABOUT: &'static str = "Generalized relative pose with known scale: 6 correspondences and 1 to validate";
+    const ERRORS: &'static [&'static str] = &["E_R deg", "E_t %"];
+
+    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (Params, Unknowns) {
+        scene(rng, noise)
+    }
+    fn validator(&self, noise: f64) -> Coplanarity {
+        Coplanarity::for_noise(noise)
+    }
+    fn errors(&self, x: &Unknowns, truth: &Unknowns) -> Vec<f64> {
+        errors(x, truth).to_vec()
+    }
+    fn correct(&self, e: &[f64]) -> bool {
+        e[0] < 2.0 && e[1] < 5.0
+    }
+    fn refine(&self, p: &Params, x0: &Unknowns) -> Refinement<7> {
+        gauss_newton::<Grp7, 7, 8, 84>(x0, p, &Default::default()).map(|(x, _)| x).into()
+    }
+    fn weights(&self) -> Option<&'static [u8]> {
+        Some(WEIGHTS)
+    }
+    fn move_frames(&self, rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> Option<(Params, Unknowns)> {
+        Some(move_frames(rng, p, x))
+    }
+    fn all_roots(&self) -> Option<&dyn AllRoots<7, 84>> {
+        Some(&self.all_roots)
+    }
+}

@@ -1,0 +1,158 @@
+//! The problem added through the public API: its derivatives, its shipped start system and
+//! weights, and its four commands from the registration, run as a user runs them.
+
+use generalized_relative_pose::{errors, move_frames, scene, Coplanarity, GenRelPose, Grp6, Grp7, Params, Unknowns, START_SYSTEM};
+use nalgebra::{SMatrix, SVector};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use simhc::pipeline::{Validator, Verdict};
+use simhc::Problem;
+use std::process::Command;
+
+/// Central differences of the residual against the generated Jacobian.
+fn jacobian_matches<P: Problem<7, NF, NP>, const NF: usize, const NP: usize>(x: &SVector<f64, 7>, p: &SVector<f64, NP>) -> f64 {
+    let mut j = SMatrix::<f64, NF, 7>::zeros();
+    P::jacobian(x, p, &mut j);
+    let mut worst = 0.0f64;
+    for k in 0..7 {
+        let h = 1e-6;
+        let (mut xp, mut xm) = (*x, *x);
+        xp[k] += h;
+        xm[k] -= h;
+        let (mut fp, mut fm) = (SVector::<f64, NF>::zeros(), SVector::<f64, NF>::zeros());
+        P::residual(&xp, p, &mut fp);
+        P::residual(&xm, p, &mut fm);
+        let numeric = (fp - fm) / (2.0 * h);
+        worst = worst.max((numeric - j.column(k)).amax() / (1.0 + j.column(k).amax()));
+    }
+    worst
+}
+
+#[test]
+fn generated_jacobians_match_central_differences() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for _ in 0..20 {
+        let (p, x) = scene(&mut rng, 0.0);
+        let x = x + SVector::from_fn(|i, _| 0.1 * (i as f64 - 3.0));
+        assert!(jacobian_matches::<Grp7, 8, 84>(&x, &p) < 1e-7);
+        let p6 = simhc_cli::first_rows::<84, 72>(&<Grp6 as simhc::ProblemLayout>::LAYOUT, &p);
+        assert!(jacobian_matches::<Grp6, 7, 72>(&x, &p6) < 1e-7);
+    }
+}
+
+#[test]
+fn the_sampler_and_the_frame_change_keep_the_truth_a_solution() {
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    let v = Coplanarity::for_noise(0.0);
+    for _ in 0..50 {
+        let (p, x) = scene(&mut rng, 0.0);
+        assert_eq!(v.verdict(&v.check(&p, &x)), Verdict::Accept);
+        let (pm, xm) = move_frames(&mut rng, &p, &x);
+        assert_eq!(v.verdict(&v.check(&pm, &xm)), Verdict::Accept, "{:?}", v.check(&pm, &xm));
+        // A wrong pose is rejected: rotation off by a few degrees.
+        let mut wrong: Unknowns = xm;
+        wrong[1] += 0.05;
+        assert_eq!(v.verdict(&v.check(&pm, &wrong)), Verdict::Reject);
+    }
+}
+
+#[test]
+fn the_shipped_start_system_has_64_solutions_of_small_residual() {
+    let file = simhc_problems::start_systems::StartSystemFile::from_json(START_SYSTEM).expect("parses");
+    let start = file.start_system::<7, 72>().expect("sizes");
+    assert_eq!(start.solutions.len(), 64);
+    assert!(start.max_residual::<Grp6>() < 1e-9, "{}", start.max_residual::<Grp6>());
+    let _ = GenRelPose::new();
+}
+
+fn grp(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_grp")).args(args).output().expect("runs grp");
+    (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// `grp bench grp --json` rows by name: (success %, wrong).
+fn bench(extra: &[&str]) -> Vec<(String, f64, u64)> {
+    let mut args = vec!["bench", "grp", "--trials", "40", "--seed", "5", "--all-roots", "5", "--json"];
+    args.extend_from_slice(extra);
+    let (ok, out, err) = grp(&args);
+    assert!(ok, "{err}");
+    let doc: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+    doc["rows"]
+        .as_array()
+        .expect("rows")
+        .iter()
+        .map(|r| (r["method"].as_str().unwrap_or("").to_string(), r["success_pct"].as_f64().unwrap_or(-1.0), r["wrong"].as_u64().unwrap_or(u64::MAX)))
+        .collect()
+}
+
+fn row<'a>(rows: &'a [(String, f64, u64)], prefix: &str) -> &'a (String, f64, u64) {
+    rows.iter().find(|r| r.0.starts_with(prefix)).unwrap_or_else(|| panic!("no row {prefix} in {rows:?}"))
+}
+
+#[test]
+fn bench_holds_on_the_sampler_in_random_frames_and_permuted() {
+    for extra in [&[][..], &["--random-frames", "--permute"][..]] {
+        let rows = bench(extra);
+        let shipped = row(&rows, "Shipped");
+        assert!(shipped.1 >= 97.5, "{extra:?}: {rows:?}");
+        assert_eq!(shipped.2, 0, "a wrong answer came back unflagged: {rows:?}");
+        assert_eq!(row(&rows, "All-roots").1, 100.0, "{rows:?}");
+        // The rows that validate never return a wrong answer unflagged.
+        for r in rows.iter().filter(|r| r.0 != "Pred Initial") {
+            assert_eq!(r.2, 0, "{r:?}");
+        }
+    }
+}
+
+fn input(p: &Params, replace: Option<(usize, &str)>) -> String {
+    let rows: Vec<String> = (0..7)
+        .map(|i| {
+            let field = |k: usize| format!("{:?}", &p.as_slice()[12 * i + 3 * k..12 * i + 3 * k + 3]);
+            let f = match replace {
+                Some((row, text)) if row == i => text.to_string(),
+                _ => field(0),
+            };
+            format!(r#"{{"f": {f}, "v": {}, "fp": {}, "vp": {}}}"#, field(1), field(2), field(3))
+        })
+        .collect();
+    format!("{{\"correspondences\": [{}]}}", rows.join(", "))
+}
+
+#[test]
+fn solve_reads_a_file_and_says_where_bad_input_is() {
+    let dir = std::env::temp_dir().join(format!("grp-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let (p, x) = scene(&mut ChaCha8Rng::seed_from_u64(21), 0.0);
+    let good = dir.join("good.json");
+    std::fs::write(&good, input(&p, None)).expect("write");
+    let (ok, out, err) = grp(&["solve", "grp", "--input", good.to_str().expect("utf-8")]);
+    assert!(ok, "{err}");
+    let doc: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+    assert_eq!(doc["validated"], true);
+    let num = |v: &serde_json::Value| v.as_f64().expect("number");
+    let q: Vec<f64> = doc["unknowns"]["q"].as_array().expect("q").iter().map(num).collect();
+    let t: Vec<f64> = doc["unknowns"]["t"].as_array().expect("t").iter().map(num).collect();
+    let found = Unknowns::from_iterator(q.into_iter().chain(t));
+    let [e_r, e_t] = errors(&found, &x);
+    assert!(e_r < 1e-6 && e_t < 1e-6, "{e_r} deg, {e_t} %");
+
+    let bad = dir.join("bad.json");
+    std::fs::write(&bad, input(&p, Some((3, "[0.1, 0.2]")))).expect("write");
+    let (ok, _, err) = grp(&["solve", "grp", "--input", bad.to_str().expect("utf-8")]);
+    assert!(!ok);
+    assert!(err.contains("correspondence 3") && err.contains("`f`") && err.contains("3 numbers"), "{err}");
+
+    let short = dir.join("short.json");
+    let text = input(&p, None);
+    let cut = text.rfind(", {").expect("a row");
+    std::fs::write(&short, format!("{}]}}", &text[..cut])).expect("write");
+    let (ok, _, err) = grp(&["solve", "grp", "--input", short.to_str().expect("utf-8")]);
+    assert!(!ok);
+    assert!(err.contains('6') && err.contains('7'), "{err}");
+
+    let malformed = dir.join("malformed.json");
+    std::fs::write(&malformed, "{\"correspondences\": [").expect("write");
+    let (ok, _, err) = grp(&["solve", "grp", "--input", malformed.to_str().expect("utf-8")]);
+    assert!(!ok);
+    assert!(err.contains("malformed JSON at line 1"), "{err}");
+}

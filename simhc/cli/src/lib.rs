@@ -1,0 +1,30 @@
+//! The `simhc` command line as a library: [`App`] builds `train`, `bench`, `solve` and
+//! `monodromy` for every registered problem. The `simhc` binary registers the built-ins
+//! ([`Upnp`], [`Grps`], [`TrackerBench`]); a user's crate registers its own declared problem
+//! with [`Declared`]:
+//!
+//! ```ignore
+//! fn main() -> std::process::ExitCode {
+//!     simhc_cli::App::new("grp", "generalized relative pose").register(simhc_cli::Declared::new(MyProblem)).main()
+//! }
+//! ```
+
+pub mod app;
+pub mod builtin;
+pub mod declared;
+mod grps;
+mod plots;
+mod stats;
+mod tracker_bench;
+mod upnp;
+
+pub use app::{progress_bar, App, Registration, Verb};
+pub use builtin::{Grps, TrackerBench, Upnp};
+pub use declared::{first_rows, AllRoots, Declared, DeclaredProblem, FirstRows, RandomStart, Refinement, SquareSubsystem};
+pub use simhc_regressor::generic::LearnedStartConfig;
+pub use simhc_regressor::TrainConfig;
+
+/// The `simhc` application: the built-in problems and the tracker benchmark.
+pub fn simhc_app() -> App {
+    App::new("simhc", "Simulator HC: regression + online simulator + single-path homotopy continuation").register(Upnp).register(Grps).register(TrackerBench)
+}

@@ -1,0 +1,6 @@
+// Wrapping a type that does not implement `DeclaredProblem` (sizes written out).
+struct NotDeclared;
+
+fn main() {
+    let _ = simhc_cli::Declared::<NotDeclared, 7, 7, 72, 100, 84>::new(NotDeclared);
+}

@@ -13,7 +13,8 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Validator, Verdict};
 use simhc::pipeline::path::gauss_newton;
-use simhc_cli::{AllRoots, DeclaredProblem, Refinement, SquareSubsystem};
+use simhc_cli::{AllRoots, CanonicalFrame, DeclaredProblem, LearnedStartConfig, Refinement, SquareSubsystem};
+use simhc_problems::frames::bearing_frame;
 
 /// 1. The declaration. `Grp7` is solved (6 rows determine the pose, the 7th validates);
 ///    `Grp6` is the square system of the start system and the all-roots fallback.
@@ -116,19 +117,25 @@ fn unknowns(q: &UnitQuaternion<f64>, t: &Vector3<f64>) -> Unknowns {
     SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z])
 }
 
-/// 2. The scene sampler: rig 1 at the origin with ray origins in `[-1, 1]^3`, points in
-///    `[-3, 3]^2 x [4, 10]`; rig 2 at any rotation and `t` in `[-1, 1]^3`, its ray origins in
-///    `[-1, 1]^3`; noise of `noise_px` pixels (focal [`FOCAL_PX`]) on every bearing.
+/// 2. The scene sampler: rig 1 at the origin with 2-7 cameras in `[-1, 1]^3`, points in
+///    `[-2, 2]^2 x [2, 20]`; rig 2 at any rotation and `t` in `[-2, 2]^3`, with 2-7 cameras in
+///    `[-1, 1]^3` of its frame; each correspondence seen by a random camera of each rig; noise
+///    of `noise_px` pixels (focal [`FOCAL_PX`]) on every bearing.
 pub fn scene(rng: &mut ChaCha8Rng, noise_px: f64) -> (Params, Unknowns) {
     let q = random_rotation(rng);
     let r = q.to_rotation_matrix().into_inner();
-    let t = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+    let t = Vector3::from_fn(|_, _| rng.random_range(-2.0..2.0));
     let mut p = Params::zeros();
     let sigma = noise_px / FOCAL_PX;
+    let cameras = |rng: &mut ChaCha8Rng| -> Vec<Vector3<f64>> { (0..rng.random_range(2..=7)).map(|_| Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0))).collect() };
+    let (rig1, rig2) = (cameras(rng), cameras(rng));
     for i in 0..7 {
-        let x = Vector3::new(rng.random_range(-3.0..3.0), rng.random_range(-3.0..3.0), rng.random_range(4.0..10.0));
-        let v = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
-        let vp = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0));
+        let x = Vector3::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0), rng.random_range(2.0..20.0));
+        // Correspondences 0 and 1 see different cameras: a rig seen through one camera only is
+        // central, and two central views leave the scale of t unobservable.
+        let camera = |rig: &[Vector3<f64>], rng: &mut ChaCha8Rng| if i < 2 { rig[i] } else { rig[rng.random_range(0..rig.len())] };
+        let v = camera(&rig1, rng);
+        let vp = camera(&rig2, rng);
         let f = perturb((x - v).normalize(), sigma, rng);
         let fp = perturb((r.transpose() * (x - t) - vp).normalize(), sigma, rng);
         set_row(&mut p, i, [f, v, fp, vp]);
@@ -154,7 +161,40 @@ pub fn move_frames(rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> (Params, U
     (out, unknowns(&q_new, &t_new))
 }
 
-/// 3. Validation: every correspondence's rays coplanar within the tolerance and meeting in
+/// 3. The canonical frame of the data: each rig's ray origins centred, its bearings rotated by
+///    [`bearing_frame`] (mean bearing to `+z`, principal spread to `+x`), both rigs scaled by
+///    one factor (the rms distance of the centred origins). With `X' = k R_i (X - c_i)` in each
+///    rig, the pose becomes `R' = R_1 R R_2^T`, `t' = k R_1 (R c_2 + t - c_1)`.
+pub fn canonicalize(p: &Params) -> Option<(Params, CanonicalFrame<7>)> {
+    let rows: Vec<[Vector3<f64>; 4]> = (0..7).map(|i| row(p, i)).collect();
+    let frame = |k: usize| bearing_frame(rows.iter().map(|r| r[k]));
+    let (r1, r2) = (frame(0)?, frame(2)?);
+    let centre = |k: usize| rows.iter().map(|r| r[k]).sum::<Vector3<f64>>() / 7.0;
+    let (c1, c2) = (centre(1), centre(3));
+    let spread = rows.iter().map(|r| (r[1] - c1).norm_squared() + (r[3] - c2).norm_squared()).sum::<f64>() / 14.0;
+    // Origins that coincide up to rounding (central rigs) are not scaled.
+    let k = if spread > 1e-12 * (1.0 + c1.norm_squared() + c2.norm_squared()) && spread.is_finite() { 1.0 / spread.sqrt() } else { 1.0 };
+    let mut out = *p;
+    for (i, [f, v, fp, vp]) in rows.iter().enumerate() {
+        set_row(&mut out, i, [r1 * f, k * (r1 * (v - c1)), r2 * fp, k * (r2 * (vp - c2))]);
+    }
+    let unit = |m: Matrix3<f64>| UnitQuaternion::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(m));
+    let (q1, q2) = (unit(r1), unit(r2));
+    let to_canonical = move |x: &Unknowns| {
+        let (r, t) = pose(x);
+        let q = q1 * unit(r) * q2.inverse();
+        unknowns(&q, &(k * (r1 * (r * c2 + t - c1))))
+    };
+    let to_user = move |x: &Unknowns| {
+        let (rc, tc) = pose(x);
+        let r = r1.transpose() * rc * r2;
+        let q = unit(r);
+        unknowns(&q, &(r1.transpose() * tc / k + c1 - r * c2))
+    };
+    Some((out, CanonicalFrame { to_canonical: Box::new(to_canonical), to_user: Box::new(to_user) }))
+}
+
+/// 4. Validation: every correspondence's rays coplanar within the tolerance and meeting in
 ///    front of both rigs.
 #[derive(Debug, Clone, Copy)]
 pub struct Coplanarity {
@@ -216,7 +256,7 @@ pub fn errors(x: &Unknowns, truth: &Unknowns) -> [f64; 2] {
     [c.clamp(-1.0, 1.0).acos().to_degrees(), 100.0 * (t - t0).norm() / t0.norm()]
 }
 
-/// 4. The registration: what `grp train|bench|solve|monodromy grp` need. Paths are tracked on
+/// 5. The registration: what `grp train|bench|solve|monodromy grp` need. Paths are tracked on
 ///    the first 6 correspondences (`Grp6`, square: 7 equations, 7 unknowns); all 7 are read by
 ///    the learned start and checked by the validator.
 impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
@@ -238,6 +278,13 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
     }
     fn correct(&self, e: &[f64]) -> bool {
         e[0] < 2.0 && e[1] < 5.0
+    }
+    fn canonicalize(&self, p: &Params) -> Option<(Params, CanonicalFrame<7>)> {
+        canonicalize(p)
+    }
+    fn training(&self) -> LearnedStartConfig {
+        // The shipped weights: `grp train grp --seed 1 --out weights/grp.folded` (84 s here).
+        LearnedStartConfig { samples: 100_000, ..LearnedStartConfig::default() }
     }
     fn refine(&self, p: &Params, x0: &Unknowns) -> Refinement<7> {
         gauss_newton::<Grp7, 7, 8, 84>(x0, p, &Default::default()).map(|(x, _)| x).into()

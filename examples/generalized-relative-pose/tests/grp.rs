@@ -1,7 +1,7 @@
 //! The problem added through the public API: its derivatives, its shipped start system and
 //! weights, and its four commands from the registration, run as a user runs them.
 
-use generalized_relative_pose::{errors, move_frames, scene, Coplanarity, GenRelPose, Grp6, Grp7, Params, Unknowns, START_SYSTEM};
+use generalized_relative_pose::{canonicalize, errors, move_frames, scene, Coplanarity, GenRelPose, Grp6, Grp7, Params, Unknowns, START_SYSTEM};
 use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -49,6 +49,12 @@ fn the_sampler_and_the_frame_change_keep_the_truth_a_solution() {
         assert_eq!(v.verdict(&v.check(&p, &x)), Verdict::Accept);
         let (pm, xm) = move_frames(&mut rng, &p, &x);
         assert_eq!(v.verdict(&v.check(&pm, &xm)), Verdict::Accept, "{:?}", v.check(&pm, &xm));
+        // The canonical frame: the canonical truth solves the canonical data, and maps back.
+        let (pc, frame) = canonicalize(&pm).expect("a frame");
+        let xc = (frame.to_canonical)(&xm);
+        assert_eq!(v.verdict(&v.check(&pc, &xc)), Verdict::Accept, "{:?}", v.check(&pc, &xc));
+        let [e_r, e_t] = errors(&(frame.to_user)(&xc), &xm);
+        assert!(e_r < 1e-5 && e_t < 1e-7, "{e_r} deg, {e_t} %");
         // A wrong pose is rejected: rotation off by a few degrees.
         let mut wrong: Unknowns = xm;
         wrong[1] += 0.05;

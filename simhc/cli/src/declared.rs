@@ -24,7 +24,7 @@ use simhc::layout::{FieldKind, Layout};
 use simhc::monodromy::SignFlip;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
 use simhc::pipeline::{
-    Attempt, Fallback, Generic, LearnedStart, Method, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider, TargetParameters, Validator,
+    Attempt, Canonicalize, Fallback, Generic, LearnedStart, Method, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider, TargetParameters, Validator,
 };
 use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::regressor::FoldedNetwork;
@@ -86,6 +86,14 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn refine(&self, _p: &SVector<f64, ND>, _x0: &SVector<f64, NX>) -> Refinement<NX> {
         Refinement::Unsupported
     }
+    /// The data in a frame computed from the data itself (centred, rotated, scaled), with the
+    /// maps of the unknowns into and out of it. The learned start is trained and run in that
+    /// frame, the paths are tracked there, and the solution is validated again in the user's
+    /// frame; so a learned start trained on one sampler holds on data in any frame. `None`
+    /// (the default): the data is used as given.
+    fn canonicalize(&self, _p: &SVector<f64, ND>) -> Option<(SVector<f64, ND>, CanonicalFrame<NX>)> {
+        None
+    }
     /// Training settings (`train` overrides samples, epochs and seed).
     fn training(&self) -> LearnedStartConfig {
         LearnedStartConfig::default()
@@ -103,6 +111,35 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// `monodromy` ([`SquareSubsystem`]).
     fn all_roots(&self) -> Option<&dyn AllRoots<NX, ND>> {
         None
+    }
+}
+
+/// A map of the unknowns from one frame to another.
+pub type UnknownsMap<const NX: usize> = Box<dyn Fn(&SVector<f64, NX>) -> SVector<f64, NX>>;
+
+/// The maps of the unknowns between the user's frame and a canonical frame of the data
+/// ([`DeclaredProblem::canonicalize`]).
+pub struct CanonicalFrame<const NX: usize> {
+    /// User's unknowns to canonical ones.
+    pub to_canonical: UnknownsMap<NX>,
+    /// Canonical unknowns to the user's.
+    pub to_user: UnknownsMap<NX>,
+}
+
+/// A problem's [`DeclaredProblem::canonicalize`] as the pipeline's [`Canonicalize`].
+struct Canon<'a, S, const NF: usize, const NP: usize, const NC: usize>(&'a S);
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Canonicalize<SVector<f64, ND>, NX> for Canon<'_, S, NF, NP, NC>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    type Frame = CanonicalFrame<NX>;
+    type Canonical = SVector<f64, ND>;
+    fn canonicalize(&self, data: &SVector<f64, ND>) -> Option<(CanonicalFrame<NX>, SVector<f64, ND>)> {
+        self.0.canonicalize(data).map(|(p, frame)| (frame, p))
+    }
+    fn to_user(&self, frame: &CanonicalFrame<NX>, x: &SVector<f64, NX>) -> SVector<f64, NX> {
+        (frame.to_user)(x)
     }
 }
 
@@ -368,6 +405,9 @@ struct SolveArgs {
     weights: Option<PathBuf>,
 }
 
+/// Trials: the data's parameters and the true unknowns.
+type Trials<const ND: usize, const NX: usize> = Vec<(SVector<f64, ND>, SVector<f64, NX>)>;
+
 /// One trial of a `--trials-file`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 struct Trial {
@@ -442,7 +482,10 @@ where
         let out = a.out.unwrap_or_else(|| PathBuf::from(format!("{}.folded", S::NAME)));
         println!("train {}: {} scenes (noise {}), {} epochs, seed {}", S::NAME, config.samples, a.noise, config.train.epochs, a.seed);
         let trained = train_learned_start(&S::Data::LAYOUT, &config, |rng| {
-            let (p, x) = self.problem.scene(rng, a.noise);
+            let (mut p, mut x) = self.problem.scene(rng, a.noise);
+            if let Some((pc, frame)) = self.problem.canonicalize(&p) {
+                (p, x) = (pc, (frame.to_canonical)(&x));
+            }
             (p.as_slice().to_vec(), x.as_slice().to_vec())
         })
         .map_err(|e| e.to_string())?;
@@ -451,7 +494,7 @@ where
         Ok(())
     }
 
-    fn trials(&self, a: &BenchArgs) -> Result<(Vec<(SVector<f64, ND>, SVector<f64, NX>)>, String), String> {
+    fn trials(&self, a: &BenchArgs) -> Result<(Trials<ND, NX>, String), String> {
         if let Some(path) = &a.trials_file {
             return Ok((read_trials(path)?, format!("file {}", path.display())));
         }
@@ -504,7 +547,7 @@ where
             bar.set_message(name.to_string());
             let row = bench_row(name, trials, &score, |d| {
                 bar.inc(1);
-                pipeline.solve(d)
+                pipeline.solve_canonical(&Canon(&self.problem), d)
             });
             bar.finish_and_clear();
             row
@@ -514,7 +557,10 @@ where
         let gn = Attempt { provider: if has_refine { pred_refined } else { pred }, method: Method::GaussNewton };
         let hc = Attempt { provider: pred, method: Method::SimulatorHc };
         let mut rows = vec![
-            bench_estimate_row("Pred Initial", &trials, &score, |p| StartProvider::<SVector<f64, ND>, NX>::start(&learned, p).ok()),
+            bench_estimate_row("Pred Initial", &trials, &score, |p| match self.problem.canonicalize(p) {
+                Some((pc, frame)) => StartProvider::<SVector<f64, ND>, NX>::start(&learned, &pc).ok().map(|x| (frame.to_user)(&x)),
+                None => StartProvider::<SVector<f64, ND>, NX>::start(&learned, p).ok(),
+            }),
             row(if has_refine { "Pred + Gauss-Newton (all rows)" } else { "Pred + Gauss-Newton" }, &[gn], false, &trials),
             row("Rand + Sim HC (one path)", &[Attempt { provider: rand, method: Method::SimulatorHc }], false, &trials),
             row("Pred + Sim HC (one path)", &[hc], false, &trials),
@@ -559,7 +605,7 @@ where
         let unknowns = |x: &SVector<f64, NX>| -> serde_json::Value {
             layout.unknowns.iter().map(|f| (f.name.to_string(), serde_json::json!(&x.as_slice()[f.offset..f.offset + f.kind.len()]))).collect::<serde_json::Map<_, _>>().into()
         };
-        match pipeline.solve(&p) {
+        match pipeline.solve_canonical(&Canon(&self.problem), &p) {
             Ok(s) => print_json(&serde_json::json!({
                 "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": format!("{:?}", s.origin), "attempts": s.attempts, "check": format!("{:?}", s.check),
             })),
@@ -589,7 +635,7 @@ fn permute_rows<const NP: usize>(layout: &Layout, p: &SVector<f64, NP>, rng: &mu
     out
 }
 
-fn read_trials<const NP: usize, const NX: usize>(path: &Path) -> Result<Vec<(SVector<f64, NP>, SVector<f64, NX>)>, String> {
+fn read_trials<const NP: usize, const NX: usize>(path: &Path) -> Result<Trials<NP, NX>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let trials: Vec<Trial> = serde_json::from_str(&text).map_err(|e| format!("{}: line {}, column {}: {e}", path.display(), e.line(), e.column()))?;
     trials

@@ -7,10 +7,13 @@ use simhc_cli::{App, Registration, Verb};
 use std::cell::RefCell;
 use std::rc::Rc;
 
+/// The commands a [`Recorder`] ran, with their `--value`.
+type Calls = Rc<RefCell<Vec<(Verb, String)>>>;
+
 /// A problem with a `bench` command only, recording what it was asked to run.
 struct Recorder {
     name: &'static str,
-    calls: Rc<RefCell<Vec<(Verb, String)>>>,
+    calls: Calls,
 }
 
 impl Registration for Recorder {
@@ -27,7 +30,7 @@ impl Registration for Recorder {
     }
 }
 
-fn recorder(name: &'static str) -> (Recorder, Rc<RefCell<Vec<(Verb, String)>>>) {
+fn recorder(name: &'static str) -> (Recorder, Calls) {
     let calls = Rc::new(RefCell::new(Vec::new()));
     (Recorder { name, calls: calls.clone() }, calls)
 }

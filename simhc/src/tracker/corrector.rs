@@ -63,6 +63,37 @@ pub(crate) struct CorrectorSettings {
     pub max_first_update: f64,
 }
 
+impl CorrectorSettings {
+    /// Newton to `tolerance` within `max_iterations` evaluations, judged by the error estimates,
+    /// with no other stop: plain Newton, the final refinement at `t = 1`. The step presets
+    /// below start from it.
+    pub fn refine(max_iterations: usize, tolerance: f64, max_norm: f64) -> Self {
+        Self {
+            max_iterations,
+            tolerance,
+            reduction: 0.0,
+            max_contraction: f64::INFINITY,
+            omega: None,
+            estimate_error: true,
+            max_norm,
+            max_first_update: f64::INFINITY,
+        }
+    }
+
+    /// A step of the paper's fixed schedule: the plain test `|dx| <= tolerance`, no estimates.
+    pub fn fixed_step(max_iterations: usize, tolerance: f64, max_norm: f64) -> Self {
+        Self { estimate_error: false, ..Self::refine(max_iterations, tolerance, max_norm) }
+    }
+
+    /// A step of the adaptive tracker: also converged at `reduction * |dx_0|`; rejected when
+    /// an update contracts by less than `max_contraction` or the first update exceeds
+    /// `max_first_update`; `omega` predicts the contraction. A drag step is this with no
+    /// contraction, first-update or `omega` test.
+    pub fn adaptive_step(max_iterations: usize, tolerance: f64, reduction: f64, max_norm: f64) -> Self {
+        Self { reduction, ..Self::refine(max_iterations, tolerance, max_norm) }
+    }
+}
+
 /// Result of a corrector run; `x` has been updated in place to the last iterate.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct CorrectorReport {
@@ -278,16 +309,7 @@ where
     let w = norm_weights(&x);
     let mut solver = LinearSolver::<S, NX, NF>::new();
     let mut stats = TrackStats::default();
-    let settings = CorrectorSettings {
-        max_iterations: options.max_iterations,
-        tolerance: options.tolerance,
-        reduction: 0.0,
-        max_contraction: f64::INFINITY,
-        omega: None,
-        estimate_error: true,
-        max_norm: options.max_norm,
-        max_first_update: f64::INFINITY,
-    };
+    let settings = CorrectorSettings::refine(options.max_iterations, options.tolerance, options.max_norm);
     let report = correct(h, &mut x, t, &w, &mut solver, &settings, &mut stats);
     let converged = match report.outcome {
         Ok(()) => true,

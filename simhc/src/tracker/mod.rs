@@ -475,36 +475,15 @@ where
         // The predicted move, for the path-jump guard (square adaptive steps only).
         let moved = weighted_norm(&(x - self.state.x), &self.state.weights);
         let settings = match (opts.step, drag) {
-            (StepControl::Fixed { .. }, _) => CorrectorSettings {
-                max_iterations: opts.max_newton_iterations,
-                tolerance: if at_end { opts.final_tolerance } else { opts.path_tolerance },
-                reduction: 0.0,
-                max_contraction: f64::INFINITY,
-                omega: None,
-                estimate_error: false,
-                max_norm: opts.max_norm,
-                max_first_update: f64::INFINITY,
-            },
-            (StepControl::Adaptive(_), Some(d)) => CorrectorSettings {
-                max_iterations: d.max_newton_iterations,
-                tolerance: opts.path_tolerance,
-                reduction: opts.path_reduction,
-                max_contraction: f64::INFINITY,
-                omega: None,
-                estimate_error: true,
-                max_norm: opts.max_norm,
-                max_first_update: f64::INFINITY,
-            },
+            (StepControl::Fixed { .. }, _) => {
+                CorrectorSettings::fixed_step(opts.max_newton_iterations, if at_end { opts.final_tolerance } else { opts.path_tolerance }, opts.max_norm)
+            }
+            (StepControl::Adaptive(_), Some(d)) => CorrectorSettings::adaptive_step(d.max_newton_iterations, opts.path_tolerance, opts.path_reduction, opts.max_norm),
             (StepControl::Adaptive(a), None) => CorrectorSettings {
-                max_iterations: opts.max_newton_iterations,
                 // The last step is accepted like any other; `finish` then polishes the end
                 // point to `final_tolerance` (demanding it here would reject good steps).
-                tolerance: opts.path_tolerance,
-                reduction: opts.path_reduction,
                 max_contraction: a.max_contraction,
                 omega: if NF == NX { self.state.omega } else { None },
-                estimate_error: true,
-                max_norm: opts.max_norm,
                 // The first update also removes what is left of the current point's error.
                 // Not for Gauss-Newton (see `AdaptiveStep` on overdetermined systems).
                 max_first_update: if NF == NX {
@@ -513,6 +492,7 @@ where
                 } else {
                     f64::INFINITY
                 },
+                ..CorrectorSettings::adaptive_step(opts.max_newton_iterations, opts.path_tolerance, opts.path_reduction, opts.max_norm)
             },
         };
         let mut report = correct(
@@ -629,16 +609,7 @@ where
         let reached = |accuracy: f64| accuracy <= opts.final_tolerance;
         if !reached(self.state.accuracy) && opts.final_newton_iterations > 0 {
             let mut x = self.state.x;
-            let settings = CorrectorSettings {
-                max_iterations: opts.final_newton_iterations,
-                tolerance: opts.final_tolerance,
-                reduction: 0.0,
-                max_contraction: f64::INFINITY,
-                omega: None,
-                estimate_error: true,
-                max_norm: opts.max_norm,
-                max_first_update: f64::INFINITY,
-            };
+            let settings = CorrectorSettings::refine(opts.final_newton_iterations, opts.final_tolerance, opts.max_norm);
             let report = correct(
                 self.homotopy,
                 &mut x,

@@ -365,16 +365,7 @@ impl<const N: usize> Path<N> {
             k3: SVector::zeros(),
             iterate: *x0,
             moved: 0.0,
-            settings: CorrectorSettings {
-                max_iterations: 0,
-                tolerance: 0.0,
-                reduction: 0.0,
-                max_contraction: f64::INFINITY,
-                omega: None,
-                estimate_error: true,
-                max_norm: f64::INFINITY,
-                max_first_update: f64::INFINITY,
-            },
+            settings: CorrectorSettings::refine(0, 0.0, f64::INFINITY),
             report: CorrectorReport::new(),
             prev: f64::NAN,
             at: *x0,
@@ -455,15 +446,11 @@ impl<const N: usize> Path<N> {
                 }
                 self.moved = weighted_norm(&(xp - self.x), &self.weights);
                 self.settings = CorrectorSettings {
-                    max_iterations: o.max_newton_iterations,
-                    tolerance: o.path_tolerance,
-                    reduction: o.path_reduction,
                     max_contraction: a.max_contraction,
                     omega: self.omega,
-                    estimate_error: true,
-                    max_norm: o.max_norm,
                     max_first_update: a.max_relative_correction * self.moved
                         + 2.0 * self.accuracy.max(o.path_tolerance),
+                    ..CorrectorSettings::adaptive_step(o.max_newton_iterations, o.path_tolerance, o.path_reduction, o.max_norm)
                 };
                 self.report = CorrectorReport::new();
                 self.prev = f64::NAN;
@@ -564,16 +551,7 @@ impl<const N: usize> Path<N> {
     /// At `t = 1`: refine to `final_tolerance` if needed (like [`super::Tracker`]'s `finish`).
     fn finish(&mut self, o: &TrackerOptions) -> Next<N> {
         if !reached(self.accuracy, o.final_tolerance) && o.final_newton_iterations > 0 {
-            self.settings = CorrectorSettings {
-                max_iterations: o.final_newton_iterations,
-                tolerance: o.final_tolerance,
-                reduction: 0.0,
-                max_contraction: f64::INFINITY,
-                omega: None,
-                estimate_error: true,
-                max_norm: o.max_norm,
-                max_first_update: f64::INFINITY,
-            };
+            self.settings = CorrectorSettings::refine(o.final_newton_iterations, o.final_tolerance, o.max_norm);
             self.report = CorrectorReport::new();
             self.prev = f64::NAN;
             self.iterate = self.x;

@@ -464,6 +464,19 @@ where
         ProblemScore(&self.problem)
     }
 
+    fn has_refine(&self) -> bool {
+        self.problem.refine(&SVector::zeros(), &SVector::zeros()) != Refinement::Unsupported
+    }
+
+    /// The shipped attempts, over the start providers `[learned, learned refined on all rows,
+    /// ..]` that `bench` and `solve` both pass: Gauss-Newton (on all rows with a refine hook: the
+    /// provider does it, and the attempt's own Gauss-Newton on the tracked rows starts at a
+    /// root), then one Simulator HC path from the learned start; the fallback after them.
+    fn shipped_schedule(&self) -> [Attempt; 2] {
+        let gauss_newton = if self.has_refine() { 1 } else { 0 };
+        [Attempt { provider: gauss_newton, method: Method::GaussNewton }, Attempt { provider: 0, method: Method::SimulatorHc }]
+    }
+
     fn learned_start(&self, weights: &Option<PathBuf>) -> Result<LearnedStart, String> {
         let bytes: std::borrow::Cow<'_, [u8]> = match weights {
             Some(path) => std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?.into(),
@@ -526,15 +539,15 @@ where
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
         let (target, simulator, validator) = (FirstRows::<S::Tracked>::new(S::Data::LAYOUT), Generic(MinNormSimulator::<S::Tracked>::new()), self.problem.validator(a.noise));
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
-        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [&learned, &random, &refined];
-        let has_refine = self.problem.refine(&SVector::zeros(), &SVector::zeros()) != Refinement::Unsupported;
+        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [&learned, &refined, &random];
+        let has_refine = self.has_refine();
         let all_roots = self.problem.all_roots().filter(|r| r.has_start_system());
         let fallback = all_roots.map(AllRootsFallback);
         let progress = !a.json;
         if progress {
             println!("{} bench: {} trials ({source}), single thread", S::NAME, trials.len());
         }
-        let (pred, rand, pred_refined) = (0, 1, 2);
+        let rand = 2;
         let score = self.score();
         let row = |name: &str, schedule: &[Attempt], with_fallback: bool, trials: &[(SVector<f64, ND>, SVector<f64, NX>)]| {
             let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &validator)
@@ -552,10 +565,7 @@ where
             bar.finish_and_clear();
             row
         };
-        // With a refine hook, Gauss-Newton runs on all rows (the start provider does it; the
-        // attempt's own Gauss-Newton on the tracked rows then starts at a root).
-        let gn = Attempt { provider: if has_refine { pred_refined } else { pred }, method: Method::GaussNewton };
-        let hc = Attempt { provider: pred, method: Method::SimulatorHc };
+        let [gn, hc] = self.shipped_schedule();
         let mut rows = vec![
             bench_estimate_row("Pred Initial", &trials, &score, |p| match self.problem.canonicalize(p) {
                 Some((pc, frame)) => StartProvider::<SVector<f64, ND>, NX>::start(&learned, &pc).ok().map(|x| (frame.to_user)(&x)),
@@ -590,13 +600,8 @@ where
         let learned = self.learned_start(&a.weights)?;
         let (target, simulator, validator) = (FirstRows::<S::Tracked>::new(layout), Generic(MinNormSimulator::<S::Tracked>::new()), self.problem.validator(a.noise));
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
-        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [&learned, &refined, &learned];
-        // Gauss-Newton on all rows (refined), else on the tracked rows, then one path.
-        let schedule = [
-            Attempt { provider: 1, method: Method::GaussNewton },
-            Attempt { provider: 0, method: Method::GaussNewton },
-            Attempt { provider: 2, method: Method::SimulatorHc },
-        ];
+        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 2] = [&learned, &refined];
+        let schedule = self.shipped_schedule();
         let fallback = self.problem.all_roots().filter(|r| r.has_start_system()).map(AllRootsFallback);
         let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &validator).with_schedule(&schedule);
         if let Some(f) = &fallback {

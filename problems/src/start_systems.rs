@@ -22,9 +22,10 @@
 //! of `f, v, fp, vp`, 12 scalars each, as [`crate::grps::Grps7::params`]; UPnP: the upper
 //! triangle of the 11x11 `M` row by row, 66 scalars, as [`crate::upnp::params_of`]).
 //!
-//! Regenerate with `cargo run --release -p simhc-problems --example monodromy -- all`
-//! (the `simhc monodromy <problem>` command calls [`run_monodromy_grps7`] /
-//! [`run_monodromy_upnp`]).
+//! Regenerate with `cargo run --release -p simhc-cli -- monodromy grps --seed 1 --output
+//! problems/data/grps7_start.json` (and `monodromy upnp ... upnp_start.json`), which call
+//! [`run_monodromy_grps7`] / [`run_monodromy_upnp`]; `--example phc_input` writes the PHCpack
+//! check and `--example all_roots_speed` times the all-roots solvers.
 
 use crate::grps::Grps7;
 use nalgebra::SVector;

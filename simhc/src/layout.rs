@@ -93,6 +93,18 @@ impl Layout {
     pub fn global_params<'p>(&self, p: &'p [f64]) -> Option<&'p [f64]> {
         p.get(self.rows * self.per_row..self.param_len())
     }
+
+    /// This instance's parameters taken from those of a larger instance of the same problem
+    /// (`p`: more rows, the same globals at its end): its first `rows` rows and the globals.
+    /// `None` when `NQ` is not this instance's parameter count or `p` is shorter.
+    pub fn first_rows<const NQ: usize>(&self, p: &[f64]) -> Option<nalgebra::SVector<f64, NQ>> {
+        let head = self.rows * self.per_row;
+        let globals = self.globals_len();
+        if NQ != self.param_len() || p.len() < NQ {
+            return None;
+        }
+        Some(nalgebra::SVector::from_fn(|i, _| if i < head { p[i] } else { p[p.len() - globals + (i - head)] }))
+    }
 }
 
 /// The layout of a compiled problem instance (emitted by `#[simhc_problem]`).

@@ -286,6 +286,7 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
         // The shipped weights: `grp train grp --seed 1 --out weights/grp.folded` (84 s here).
         LearnedStartConfig { samples: 100_000, ..LearnedStartConfig::default() }
     }
+    const REFINES: bool = true;
     fn refine(&self, p: &Params, x0: &Unknowns) -> Refinement<7> {
         gauss_newton::<Grp7, 7, 8, 84>(x0, p, &Default::default()).map(|(x, _)| x).into()
     }

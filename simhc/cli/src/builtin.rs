@@ -101,10 +101,17 @@ pub struct MonodromyArgs {
 impl MonodromyArgs {
     /// The settings of [`simhc_problems::start_systems::run_monodromy`].
     pub fn config(&self) -> simhc_problems::start_systems::MonodromyConfig {
-        let mut config = simhc_problems::start_systems::MonodromyConfig { seed: self.seed, stall_loops: self.stall_loops, parallel: self.parallel, ..Default::default() };
-        config.output = self.output.clone();
-        println!("monodromy: seed {}, stop after {} loops without a new solution", self.seed, self.stall_loops);
-        config
+        simhc_problems::start_systems::MonodromyConfig { seed: self.seed, stall_loops: self.stall_loops, parallel: self.parallel, output: self.output.clone(), ..Default::default() }
+    }
+
+    /// `simhc monodromy <problem>`: parses the arguments, prints the seed, runs `monodromy` and
+    /// prints its report.
+    pub fn run<R: std::fmt::Display, E: std::fmt::Display>(args: &ArgMatches, monodromy: impl FnOnce(&simhc_problems::start_systems::MonodromyConfig) -> Result<R, E>) -> Result<(), String> {
+        let a: MonodromyArgs = parse(args)?;
+        println!("monodromy: seed {}, stop after {} loops without a new solution", a.seed, a.stall_loops);
+        let report = monodromy(&a.config()).map_err(|e| e.to_string())?;
+        println!("{report}");
+        Ok(())
     }
 }
 
@@ -206,12 +213,7 @@ impl Registration for Upnp {
                 simhc_regressor::upnp::train_and_write(&a.out(), &config).map_err(|e| e.to_string())
             }
             Verb::Solve => solve(args, upnp::solve_file),
-            Verb::Monodromy => {
-                let a: MonodromyArgs = parse(args)?;
-                let report = simhc_problems::start_systems::run_monodromy_upnp(&a.config()).map_err(|e| e.to_string())?;
-                println!("{report}");
-                Ok(())
-            }
+            Verb::Monodromy => MonodromyArgs::run(args, simhc_problems::start_systems::run_monodromy_upnp),
         }
     }
 }
@@ -260,12 +262,7 @@ impl Registration for Grps {
                 simhc_regressor::grps::train_and_write(&a.out(), &config).map_err(|e| e.to_string())
             }
             Verb::Solve => solve(args, grps::solve_file),
-            Verb::Monodromy => {
-                let a: MonodromyArgs = parse(args)?;
-                let report = simhc_problems::start_systems::run_monodromy_grps7(&a.config()).map_err(|e| e.to_string())?;
-                println!("{report}");
-                Ok(())
-            }
+            Verb::Monodromy => MonodromyArgs::run(args, simhc_problems::start_systems::run_monodromy_grps7),
         }
     }
 }

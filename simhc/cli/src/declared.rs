@@ -66,6 +66,9 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     const ABOUT: &'static str;
     /// Names of the errors [`DeclaredProblem::errors`] returns (bench columns).
     const ERRORS: &'static [&'static str];
+    /// Whether [`DeclaredProblem::refine`] is implemented: the shipped schedule then starts
+    /// with Gauss-Newton on all rows, and bench adds that row.
+    const REFINES: bool = false;
 
     /// A scene with noise of size `noise` (the problem's unit, for example pixels): the
     /// parameters of all its rows (`Data`) and its true unknowns.
@@ -82,7 +85,7 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// With validation rows this is far more selective than Gauss-Newton on the tracked
     /// rows: an extra row removes the basins of the other roots.
     /// [`Refinement::Unsupported`] (the default): the Gauss-Newton attempts run on the tracked
-    /// rows.
+    /// rows. Set [`DeclaredProblem::REFINES`] when you implement it.
     fn refine(&self, _p: &SVector<f64, ND>, _x0: &SVector<f64, NX>) -> Refinement<NX> {
         Refinement::Unsupported
     }
@@ -206,7 +209,7 @@ where
 {
     fn candidates(&self, p: &SVector<f64, NP>) -> Vec<SVector<f64, NX>> {
         let Some(start) = &self.start else { return Vec::new() };
-        let q = first_rows(&Q::LAYOUT, p);
+        let Some(q) = Q::LAYOUT.first_rows::<NQ>(p.as_slice()) else { return Vec::new() };
         solve_all_fast::<Q, NX, NQ, NCQ>(start, &q, &self.options).real.iter().map(|s| s.x).collect()
     }
 
@@ -244,20 +247,29 @@ impl<Q: ProblemLayout> FirstRows<Q> {
     }
 }
 
-/// The first rows of `p` and its globals, for a system of `layout` (`NQ` parameters).
-pub fn first_rows<const ND: usize, const NQ: usize>(layout: &Layout, p: &SVector<f64, ND>) -> SVector<f64, NQ> {
-    let head = layout.rows * layout.per_row;
-    let globals = layout.globals_len();
-    SVector::from_fn(|i, _| if i < head { p[i] } else { p[ND - globals + (i - head)] })
+/// Why [`FirstRows`] cannot make the tracked parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum FirstRowsError {
+    /// A parameter of the data is NaN or infinite.
+    #[error(transparent)]
+    NonFinite(#[from] NonFiniteParameter),
+    /// The tracked instance is not a first-rows part of the data.
+    #[error("the tracked instance has {tracked} parameters, which are not the first rows and the globals of the data's {data}")]
+    Sizes {
+        /// Parameters of the tracked instance.
+        tracked: usize,
+        /// Parameters of the data.
+        data: usize,
+    },
 }
 
 impl<Q: ProblemLayout, const NP: usize, const ND: usize> TargetParameters<SVector<f64, ND>, NP> for FirstRows<Q> {
-    type Error = NonFiniteParameter;
-    fn params(&self, data: &SVector<f64, ND>) -> Result<SVector<f64, NP>, NonFiniteParameter> {
-        match data.iter().position(|v| !v.is_finite()) {
-            Some(index) => Err(NonFiniteParameter::locate(&self.data_layout, index)),
-            None => Ok(first_rows(&Q::LAYOUT, data)),
+    type Error = FirstRowsError;
+    fn params(&self, data: &SVector<f64, ND>) -> Result<SVector<f64, NP>, FirstRowsError> {
+        if let Some(index) = data.iter().position(|v| !v.is_finite()) {
+            return Err(NonFiniteParameter::locate(&self.data_layout, index).into());
         }
+        Q::LAYOUT.first_rows(data.as_slice()).ok_or(FirstRowsError::Sizes { tracked: NP, data: ND })
     }
 }
 
@@ -464,16 +476,12 @@ where
         ProblemScore(&self.problem)
     }
 
-    fn has_refine(&self) -> bool {
-        self.problem.refine(&SVector::zeros(), &SVector::zeros()) != Refinement::Unsupported
-    }
-
     /// The shipped attempts, over the start providers `[learned, learned refined on all rows,
     /// ..]` that `bench` and `solve` both pass: Gauss-Newton (on all rows with a refine hook: the
     /// provider does it, and the attempt's own Gauss-Newton on the tracked rows starts at a
     /// root), then one Simulator HC path from the learned start; the fallback after them.
     fn shipped_schedule(&self) -> [Attempt; 2] {
-        let gauss_newton = if self.has_refine() { 1 } else { 0 };
+        let gauss_newton = if S::REFINES { 1 } else { 0 };
         [Attempt { provider: gauss_newton, method: Method::GaussNewton }, Attempt { provider: 0, method: Method::SimulatorHc }]
     }
 
@@ -540,7 +548,7 @@ where
         let (target, simulator, validator) = (FirstRows::<S::Tracked>::new(S::Data::LAYOUT), Generic(MinNormSimulator::<S::Tracked>::new()), self.problem.validator(a.noise));
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
         let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [&learned, &refined, &random];
-        let has_refine = self.has_refine();
+        let has_refine = S::REFINES;
         let all_roots = self.problem.all_roots().filter(|r| r.has_start_system());
         let fallback = all_roots.map(AllRootsFallback);
         let progress = !a.json;
@@ -696,10 +704,7 @@ where
             Verb::Solve => self.solve(parse(args)?),
             Verb::Monodromy => {
                 let roots = self.problem.all_roots().ok_or_else(|| format!("{} has no square subsystem (DeclaredProblem::all_roots)", S::NAME))?;
-                let a: MonodromyArgs = parse(args)?;
-                let report = roots.monodromy(&a.config()).map_err(|e| e.to_string())?;
-                println!("{report}");
-                Ok(())
+                MonodromyArgs::run(args, |config| roots.monodromy(config))
             }
         }
     }

@@ -20,7 +20,7 @@ mod upnp;
 
 pub use app::{progress_bar, App, Registration, Verb};
 pub use builtin::{Grps, TrackerBench, Upnp};
-pub use declared::{first_rows, AllRoots, CanonicalFrame, Declared, DeclaredProblem, FirstRows, RandomStart, Refinement, SquareSubsystem};
+pub use declared::{AllRoots, CanonicalFrame, Declared, DeclaredProblem, FirstRows, FirstRowsError, RandomStart, Refinement, SquareSubsystem};
 pub use simhc_regressor::generic::LearnedStartConfig;
 pub use simhc_regressor::TrainConfig;
 

@@ -10,6 +10,7 @@
 //!
 //! The engine is deterministic: the same declaration gives byte-identical output.
 
+pub mod coefficients;
 pub mod ctxt;
 pub mod dag;
 pub mod decl;
@@ -17,6 +18,7 @@ pub mod emit;
 pub mod lower;
 pub mod poly;
 
+use coefficients::CoefficientSplit;
 use ctxt::Ctxt;
 use proc_macro2::TokenStream;
 
@@ -46,13 +48,57 @@ pub fn compile(attr: TokenStream, item: TokenStream) -> Result<TokenStream, syn:
     cx.check()?;
     validate(&mut cx, &decl, &probe);
     cx.check()?;
-    let counts: Vec<usize> = if decl.row_fields.is_empty() {
-        vec![0]
-    } else {
-        decl.rows.iter().map(|&(n, _)| n).collect()
-    };
-    let instances: Vec<lower::Instance> = counts.iter().map(|&n| lower::lower(&decl, n)).collect();
-    Ok(emit::module(&decl, &instances))
+    Ok(emit::module(&decl, &Lowered::new(&decl)))
+}
+
+/// A declaration lowered once: everything [`emit`] renders, so that emission only renders.
+#[derive(Debug)]
+pub struct Lowered {
+    /// One instance per row count of the declaration (a single one without rows).
+    pub instances: Vec<Expanded>,
+    /// The one row the row kernels are built from, when some instance has two or more rows.
+    pub one_row: Option<OneRow>,
+}
+
+/// An instance expanded into polynomials, with its coefficient form.
+#[derive(Debug)]
+pub struct Expanded {
+    pub instance: lower::Instance,
+    pub coefficients: CoefficientSplit,
+}
+
+/// A single row lowered both ways: expanded (the row kernels of the parameter and coefficient
+/// forms) and onto a DAG without expansion (the path-lane kernel from the parameters).
+#[derive(Debug)]
+pub struct OneRow {
+    pub expanded: Expanded,
+    pub unexpanded: dag::Unexpanded,
+}
+
+impl Expanded {
+    fn new(decl: &decl::Declaration, rows: usize) -> Self {
+        let instance = lower::lower(decl, rows);
+        let coefficients = coefficients::split_coefficients(&instance);
+        Self { instance, coefficients }
+    }
+}
+
+impl Lowered {
+    /// Lowers a declaration that [`lower::check`] and the size checks accepted.
+    pub fn new(decl: &decl::Declaration) -> Self {
+        let counts: Vec<usize> = if decl.row_fields.is_empty() {
+            vec![0]
+        } else {
+            decl.rows.iter().map(|&(n, _)| n).collect()
+        };
+        let instances: Vec<Expanded> = counts.iter().map(|&n| Expanded::new(decl, n)).collect();
+        let one_row = instances.iter().any(|e| e.instance.rows >= 2).then(|| {
+            let expanded = Expanded::new(decl, 1);
+            let unexpanded = dag::Unexpanded::lower(decl, 1, expanded.instance.vars.nx());
+            OneRow { expanded, unexpanded }
+        });
+        Self { instances, one_row }
+    }
 }
 
 /// Checks that need the equations: sizes, unused unknowns, vanishing equations.

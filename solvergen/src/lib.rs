@@ -1,9 +1,10 @@
 //! solvergen: the simhc solver compiler.
 //!
 //! A `#[simhc_problem]` module (see [`decl`] for the language) goes through
-//! parse ([`decl`]) -> validate and lower to sparse polynomials ([`lower`], [`poly`]) ->
-//! exact differentiation -> hash-consed DAG with common subexpressions shared ([`dag`]) ->
-//! straight-line Rust ([`emit`]), formatted with prettyplease for review and for `generated/`.
+//! parse ([`decl`]) -> validate and lower to sparse polynomials ([`lower`], [`poly`]) and their
+//! coefficient form ([`coefficients`]), all at once ([`Lowered`]) -> exact differentiation ->
+//! hash-consed DAG with common subexpressions shared ([`dag`]) -> straight-line Rust ([`emit`]),
+//! formatted with prettyplease for review and for the checked-in files of a workspace.
 //! The batch tracker's row kernel from the parameters skips the expansion: the same evaluator
 //! lowers the equations onto DAG nodes ([`lower::Algebra`], [`dag::DagAlgebra`]), differentiated
 //! there by reverse mode (`x`-gradient) and forward mode (`dF/dp * dp`).

@@ -15,6 +15,7 @@
 //! kernel from the parameters, where the unexpanded form is cheaper (GRPS: the rotation formed
 //! once instead of multiplied into 38 coefficients per row).
 
+use crate::decl::Declaration;
 use crate::lower::VarTable;
 use crate::poly::{Monomial, Poly, Var};
 use std::collections::{BTreeMap, HashMap};
@@ -47,7 +48,7 @@ pub enum Node {
 }
 
 /// The DAG under construction.
-#[derive(Default)]
+#[derive(Clone, Debug, Default)]
 pub struct Dag {
     /// Nodes in topological order.
     pub nodes: Vec<Node>,
@@ -450,6 +451,97 @@ impl Dag {
     /// The leaf node of variable `v` of `vars`' numbering.
     pub fn leaf(&mut self, v: Var, vars: &VarTable) -> NodeId {
         self.var(v, vars)
+    }
+
+    /// Splits the DAG of `outputs` at the nodes that depend on the unknowns alone: the part a
+    /// row kernel shares with every other row, computed once per path instead of once per row.
+    /// Interior nodes only: leaves and constants are as cheap to load as a slot.
+    pub fn hoist_x_only(&self, outputs: &[NodeId]) -> Hoisted {
+        let dag = self;
+        let live = dag.reachable(outputs);
+        let len = dag.nodes.len();
+        let x_only: Vec<bool> =
+            dag.depends_on(|n| matches!(n, Node::P(_) | Node::Dp(_) | Node::C(_))).into_iter().map(|d| !d).collect();
+        let interior = |i: usize| !matches!(dag.nodes[i], Node::X(_) | Node::Const(_));
+        // Slots: x-only interior nodes read by a parameter-dependent node, or outputs.
+        let mut slot_of = vec![None; len];
+        let mut shared = Vec::new();
+        let mut take = |i: usize, slot_of: &mut Vec<Option<usize>>| {
+            if x_only[i] && interior(i) && slot_of[i].is_none() {
+                slot_of[i] = Some(shared.len());
+                shared.push(NodeId(i as u32));
+            }
+        };
+        for (i, node) in dag.nodes.iter().enumerate() {
+            if !live[i] || x_only[i] {
+                continue;
+            }
+            match *node {
+                Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
+                    take(a.0 as usize, &mut slot_of);
+                    take(b.0 as usize, &mut slot_of);
+                }
+                Node::Neg(a) => take(a.0 as usize, &mut slot_of),
+                _ => {}
+            }
+        }
+        for o in outputs {
+            take(o.0 as usize, &mut slot_of);
+        }
+        let mut row = Dag::default();
+        let mut map: Vec<Option<NodeId>> = vec![None; len];
+        for (i, node) in dag.nodes.iter().enumerate() {
+            if !live[i] {
+                continue;
+            }
+            let m = |id: NodeId| map[id.0 as usize].unwrap_or(id);
+            map[i] = Some(match (slot_of[i], node) {
+                (Some(slot), _) => row.intern(Node::C(slot as u32)),
+                (None, _) if x_only[i] && interior(i) => continue,
+                (None, Node::Add(a, b)) => row.intern(Node::Add(m(*a), m(*b))),
+                (None, Node::Sub(a, b)) => row.intern(Node::Sub(m(*a), m(*b))),
+                (None, Node::Mul(a, b)) => row.intern(Node::Mul(m(*a), m(*b))),
+                (None, Node::Neg(a)) => row.intern(Node::Neg(m(*a))),
+                (None, leaf) => row.intern(leaf.clone()),
+            });
+        }
+        Hoisted { row, map, shared }
+    }
+}
+
+/// [`Dag::hoist_x_only`]: a row DAG reading the part that depends on the unknowns alone from
+/// slots.
+#[derive(Debug)]
+pub struct Hoisted {
+    /// A copy of the DAG in which each node depending on the unknowns alone that a node
+    /// depending on the parameters (or an output) reads becomes a leaf `Node::C(slot)`.
+    pub row: Dag,
+    /// `map[i]`: the copy of node `i` in `row` (`None` for nodes the row does not read).
+    pub map: Vec<Option<NodeId>>,
+    /// The original nodes of the slots, in slot order.
+    pub shared: Vec<NodeId>,
+}
+
+/// A declaration lowered onto a DAG without expansion ([`DagAlgebra`]): the equations as
+/// nodes, in the order of [`crate::lower::Instance::equations`].
+#[derive(Clone, Debug)]
+pub struct Unexpanded {
+    pub dag: Dag,
+    /// The equations, rows first, then the global equations.
+    pub equations: Vec<NodeId>,
+    pub vars: VarTable,
+    /// Equations per row.
+    pub eqs_per_row: usize,
+}
+
+impl Unexpanded {
+    /// Lowers `decl` for `rows` rows with `nx` unknowns (the expanded instance's count). Call
+    /// [`crate::lower::check`] first: this assumes a valid body.
+    pub fn lower(decl: &Declaration, rows: usize, nx: usize) -> Self {
+        let mut dag = Dag::default();
+        let (equations, vars, eqs_per_row, _) =
+            crate::lower::evaluate(&mut DagAlgebra { dag: &mut dag, nx }, None, decl, rows);
+        Self { dag, equations, vars, eqs_per_row }
     }
 }
 

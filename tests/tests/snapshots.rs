@@ -9,7 +9,7 @@ use std::path::Path;
 fn expansion(src: &str) -> syn::File {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let source = std::fs::read_to_string(root.join(src)).unwrap_or_else(|e| panic!("{src}: {e}"));
-    let text = solvergen::generate_file(&source).unwrap_or_else(|e| panic!("{src}: {e}"));
+    let text = solvergen::generate_file(&source, xtask::HEADER).unwrap_or_else(|e| panic!("{src}: {e}"));
     syn::parse_file(&text).unwrap_or_else(|e| panic!("generated code does not parse: {e}"))
 }
 
@@ -112,7 +112,7 @@ fn layout_metadata_of_every_kind() {
             }
         }
     "#;
-    let text = solvergen::generate_file(source).unwrap_or_else(|e| panic!("{e}"));
+    let text = solvergen::generate_file(source, xtask::HEADER).unwrap_or_else(|e| panic!("{e}"));
     let file = syn::parse_file(&text).expect("generated code parses");
     let mut layouts = Vec::new();
     for item in &file.items {

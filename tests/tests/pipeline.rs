@@ -7,11 +7,10 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{
-    Attempt, Canonicalize, Method,
-    Fallback, Generic, Origin, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider, TargetParameters, Validator,
-    Verdict,
+    Attempt, AttemptError, Canonicalize, Fallback, Generic, Method, Origin, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider,
+    StartSimulator, TargetParameters, Validator, Verdict,
 };
-use simhc::MinNormSimulator;
+use simhc::{MinNormSimulator, SimulatorError};
 use simhc_problems::metrics::{quat_from_rotation, random_rotation_perturbation, rotation_error_deg, rotation_from_quat};
 use simhc_problems::upnp::scene::random_rotation;
 
@@ -177,7 +176,8 @@ fn retries_after_a_start_that_is_not_available() {
     let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT);
     let solved = pipeline.solve(&data).expect("the second start validates");
     assert_eq!(solved.origin, Origin::Path { provider: 1, method: Method::SimulatorHc });
-    assert_eq!(solved.attempts, 2);
+    // A provider without a start makes no attempt.
+    assert_eq!(solved.attempts, 1);
     assert!(solved.check.0 < 1e-8);
     assert!(rotation_error_deg(&pose(&solved.x).0, &r) < 1e-6);
 }
@@ -215,10 +215,11 @@ fn the_fallback_runs_when_no_path_validates_and_is_validated_too() {
     let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_fallback(&fallback);
     let solved = pipeline.solve(&data).expect("the true candidate validates");
     assert_eq!(solved.origin, Origin::Fallback { candidate: 1 });
-    assert_eq!(solved.attempts, 2);
+    // The provider had no start (no attempt); the fallback counts as one.
+    assert_eq!(solved.attempts, 1);
     // Without the fallback: nothing at all.
     let off = pipeline.with_options(PipelineOptions { fallback: false, ..PipelineOptions::default() });
-    assert!(matches!(off.solve(&data), Err(PipelineError::NoEndPoint { attempts: 1, last: Some(_) })));
+    assert!(matches!(off.solve(&data), Err(PipelineError::NoEndPoint { attempts: 0, last: Some(AttemptError::Start(_)) })));
     // Only wrong candidates: flagged, not returned.
     let only_wrong = Candidates(vec![wrong]);
     let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_fallback(&only_wrong);
@@ -339,4 +340,34 @@ fn a_schedule_tries_methods_in_order_and_computes_each_start_once() {
     // missing provider 7 was skipped (not counted as an attempt).
     assert_eq!(solved.origin, Origin::Path { provider: 1, method: Method::GaussNewton });
     assert_eq!(solved.attempts, 3);
+}
+
+#[test]
+fn other_simulators_are_named_by_index_in_the_schedule() {
+    let seed = 10;
+    println!("seed {seed}");
+    let (data, truth, r) = scene(seed);
+    let near_start = Fixed("near", near(&truth, &r, 10.0, seed));
+    let starts: [&dyn StartProvider<Data, 7>; 1] = [&near_start];
+    // Other simulator 3 does not exist (skipped, not an attempt); 0 is the generic one.
+    let schedule = [Attempt { provider: 0, method: Method::OtherSimulatorHc(3) }, Attempt { provider: 0, method: Method::OtherSimulatorHc(0) }];
+    let (sim, other) = (Broken, simulator());
+    let others: [&dyn StartSimulator<Data, 7, 10, 18>; 1] = [&other];
+    let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_schedule(&schedule).with_other_simulators(&others);
+    let solved = pipeline.solve(&data).expect("the other simulator's path validates");
+    assert_eq!(solved.origin, Origin::Path { provider: 0, method: Method::OtherSimulatorHc(0) });
+    assert!(rotation_error_deg(&pose(&solved.x).0, &r) < 1e-6);
+    // The pipeline's own simulator fails on every start: no end point.
+    let own = [Attempt { provider: 0, method: Method::SimulatorHc }];
+    let failing = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_schedule(&own).with_other_simulators(&others);
+    assert!(matches!(failing.solve(&data), Err(PipelineError::NoEndPoint { attempts: 1, last: Some(AttemptError::Simulator(_)) })));
+}
+
+/// A simulator that always fails.
+struct Broken;
+
+impl StartSimulator<Data, 7, 10, 18> for Broken {
+    fn simulate(&self, _data: &Data, _x0: &SVector<f64, 7>, _p: &SVector<f64, 18>) -> Result<SVector<f64, 18>, SimulatorError> {
+        Err(SimulatorError::Singular)
+    }
 }

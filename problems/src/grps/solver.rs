@@ -2,6 +2,13 @@
 //! single-path homotopy continuation on the compiled GRPS7 / GRPS8 system, with failure
 //! detection and retries.
 //!
+//! It runs on [`simhc::pipeline`], as every problem does; what is GRPS's own is a few pieces:
+//! the start hypotheses (one [`StartProvider`] each), the geometric simulator (a
+//! [`StartSimulator`] beside the generic one, which attempts name as
+//! [`simhc::pipeline::Method::OtherSimulatorHc`]), the [`Validation`] thresholds (a
+//! [`Validator`]), the all-roots fallback (a [`Fallback`]) and, after the pipeline, the
+//! refinement on all correspondences.
+//!
 //! # Pipeline ([`GrpsSolver::solve_report`])
 //!
 //! 1. Input checks ([`super::geometry::validate`]): at least 7 correspondences, finite values,
@@ -53,11 +60,18 @@ use super::scene::GrpsCorrespondence;
 use super::{Grps7, Grps8, Row};
 use crate::metrics::rotation_from_quat;
 use nalgebra::{Matrix3, Rotation3, SVector, Unit, Vector3};
-use simhc::homotopy::CoefficientLine;
+use simhc::pipeline::{
+    self, Attempt, Fallback, Generic, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator, TargetParameters,
+    Validator, Verdict,
+};
 use simhc::regressor::{FoldedNetwork, RegressorError};
-use simhc::tracker::{solve_newton, track, NewtonOptions, TrackError, TrackStats, TrackerOptions};
+use simhc::tracker::{solve_newton, NewtonOptions, TrackStats, TrackerOptions};
 use simhc::{CoefficientForm, MinNormSimulator, ParamDerivative, SimulatorError};
+use std::cell::{Cell, OnceCell};
+use std::convert::Infallible;
 use std::time::{Duration, Instant};
+
+pub use simhc::pipeline::AttemptError;
 use thiserror::Error;
 
 /// The shipped GRPS regressor (trained by `simhc train grps`).
@@ -117,6 +131,27 @@ pub enum Method {
     AllRoots,
 }
 
+impl Method {
+    /// The pipeline's method of an attempt (`None` for [`Method::AllRoots`], the fallback).
+    fn in_pipeline(self) -> Option<pipeline::Method> {
+        match self {
+            Method::Hc(SimulatorKind::Geometric) => Some(pipeline::Method::SimulatorHc),
+            Method::Hc(SimulatorKind::Generic) => Some(pipeline::Method::OtherSimulatorHc(0)),
+            Method::GaussNewton => Some(pipeline::Method::GaussNewton),
+            Method::AllRoots => None,
+        }
+    }
+
+    /// The method of a pipeline attempt ([`GrpsSolver::pipeline`]).
+    fn of(method: pipeline::Method) -> Self {
+        match method {
+            pipeline::Method::SimulatorHc => Method::Hc(SimulatorKind::Geometric),
+            pipeline::Method::OtherSimulatorHc(_) => Method::Hc(SimulatorKind::Generic),
+            pipeline::Method::GaussNewton => Method::GaussNewton,
+        }
+    }
+}
+
 /// Where a start hypothesis came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StartKind {
@@ -132,6 +167,20 @@ pub enum StartKind {
     Perturbed(u8),
     /// A start given by the caller.
     Given,
+}
+
+impl StartKind {
+    /// Its name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            StartKind::Prediction => "prediction",
+            StartKind::PredictedRotation => "predicted rotation, least-squares t and s",
+            StartKind::Swapped => "swapped prediction",
+            StartKind::SwappedRotation => "swapped rotation, least-squares t and s",
+            StartKind::Perturbed(_) => "perturbed prediction",
+            StartKind::Given => "given start",
+        }
+    }
 }
 
 /// Solver settings; the default is the shipped configuration.
@@ -269,32 +318,18 @@ pub enum GrpsSolveError {
     /// The input has no canonical frame: its values are too large to centre and scale.
     #[error("the correspondences have no canonical frame (values too large to centre and scale)")]
     NoCanonicalFrame,
-    /// Every attempt failed to track.
-    #[error("all {attempts} attempts failed; last: {last}")]
+    /// Every attempt failed to track (and the fallback had no candidate).
+    #[error("all {attempts} attempts failed; last: {}", match .last { Some(e) => e.to_string(), None => "no end point is a pose".to_string() })]
     NoEndPoint {
         /// Attempts made.
         attempts: usize,
-        /// The last failure.
-        last: AttemptError,
+        /// The last failure, if an attempt ran.
+        last: Option<AttemptError>,
     },
     /// End points were found but none passed validation; the best one is attached (flagged
     /// result).
     #[error("no end point passed validation (best: max angular residual {:e}, {} behind a camera)", .0.validation.max_angle, .0.validation.behind)]
     NotValidated(Box<GrpsSolveReport>),
-}
-
-/// Why one attempt produced no end point.
-#[derive(Debug, Clone, Copy, PartialEq, Error)]
-pub enum AttemptError {
-    /// The simulator failed (degenerate simulated ray or inconsistent generic correction).
-    #[error("simulator: {0}")]
-    Simulator(#[from] SimulatorError),
-    /// The path (or Gauss-Newton) failed.
-    #[error("tracker: {0}")]
-    Tracker(#[from] TrackError),
-    /// The end point is not a pose (zero quaternion, non-finite values).
-    #[error("end point is not a pose")]
-    NotAPose,
 }
 
 /// How well an end point explains the correspondences.
@@ -474,107 +509,85 @@ impl GrpsSolver {
         given: Option<GrpsPose>,
         times: &mut StageTimes,
     ) -> Result<GrpsSolveReport, GrpsSolveError> {
-        let o = &self.options;
         let base = given.or(prediction).ok_or(GrpsSolveError::BadPrediction)?;
         let base_kind = if given.is_some() { StartKind::Given } else { StartKind::Prediction };
-        let schedule = self.schedule(base_kind);
-
-        let mut attempts = 0;
-        let mut best: Option<GrpsSolveReport> = None;
-        let mut plausible: Option<GrpsSolveReport> = None;
-        let mut deadline = usize::MAX;
-        let mut last_error = AttemptError::NotAPose;
-        let mut current: Option<(StartKind, Option<GrpsPose>)> = None;
-        let mut swapped: Option<Option<GrpsPose>> = None;
-        for (kind, method) in schedule {
-            if attempts >= deadline {
-                break;
-            }
-            if current.is_none_or(|(k, _)| k != kind) {
-                let ts = Instant::now();
-                let start = self.start_hypothesis(kind, &base, corrs, times, &mut swapped);
-                times.simulator += ts.elapsed();
-                current = Some((kind, start));
-            }
-            let Some((_, Some(start))) = current else { continue };
-            attempts += 1;
-            match self.attempt(corrs, &start, method, times) {
-                Ok((pose, stats)) => {
-                    let tv = Instant::now();
-                    let validation = Validation::of(&pose, corrs);
-                    times.tracking += tv.elapsed();
-                    let report = GrpsSolveReport { pose, prediction, validation, attempts, start: kind, method, stats, times: *times };
-                    if validation.passes(o.accept_angle, 0) {
-                        return Ok(self.finish(corrs, report, times));
-                    }
-                    if validation.passes(o.plausible_angle, o.max_behind) {
-                        if plausible.as_ref().is_none_or(|b| validation.max_angle < b.validation.max_angle) {
-                            plausible = Some(report);
-                        }
-                        deadline = deadline.min(attempts + o.extra_attempts);
-                    }
-                    if best.as_ref().is_none_or(|b| validation.key() < b.validation.key()) {
-                        best = Some(report);
-                    }
-                }
-                Err(e) => last_error = e,
-            }
-        }
-        if let Some(mut p) = plausible {
-            p.attempts = attempts;
-            return Ok(self.finish(corrs, p, times));
-        }
-        if o.all_roots_fallback && o.max_attempts > 1 {
-            let t = Instant::now();
-            let fallback = all_roots_fallback(corrs, &base, &o.newton);
-            times.tracking += t.elapsed();
-            if let Some((pose, validation)) = fallback {
-                let report = GrpsSolveReport {
-                    pose,
-                    prediction,
-                    validation,
-                    attempts: attempts + 1,
-                    start: base_kind,
-                    method: Method::AllRoots,
-                    stats: TrackStats::default(),
-                    times: *times,
-                };
-                if validation.passes(o.plausible_angle, o.max_behind) {
-                    return Ok(self.finish(corrs, report, times));
-                }
-                if best.as_ref().is_none_or(|b| validation.key() < b.validation.key()) {
-                    best = Some(report);
-                }
-            }
-            attempts += 1;
-        }
-        match best {
-            Some(mut b) => {
-                b.attempts = attempts;
-                b.times = *times;
-                Err(GrpsSolveError::NotValidated(Box::new(b)))
-            }
-            None => Err(GrpsSolveError::NoEndPoint { attempts, last: last_error }),
+        let (kinds, schedule) = self.schedule(base_kind);
+        let hypotheses = Hypotheses::new(self, base, kinds);
+        let result = if corrs.len() == 7 {
+            self.pipeline::<Grps7, 7, 8, 84, 266, _>(&hypotheses, Grps7::params, |p| p.with_schedule(&schedule).solve(corrs))
+        } else {
+            self.pipeline::<Grps8, 8, 9, 96, 304, _>(&hypotheses, Grps8::params, |p| p.with_schedule(&schedule).solve(corrs))
+        };
+        let regressor = hypotheses.regressor.get();
+        times.regressor += regressor;
+        // The pipeline's solution as a report, its stage times added to `times`.
+        let report = |s: &Solved<Validation, 8>, times: &mut StageTimes| {
+            times.simulator += s.times.start.saturating_sub(regressor) + s.times.simulator;
+            times.tracking += s.times.target + s.times.tracking + s.times.fallback;
+            let (start, method) = match s.origin {
+                Origin::Path { provider, method } => (hypotheses.kinds[provider], Method::of(method)),
+                Origin::Fallback { .. } => (base_kind, Method::AllRoots),
+            };
+            let pose = GrpsPose::from_unknowns(&s.x)?;
+            Some(GrpsSolveReport { pose, prediction, validation: s.check, attempts: s.attempts, start, method, stats: s.stats, times: *times })
+        };
+        match result {
+            Ok(s) => match report(&s, times) {
+                Some(r) => Ok(self.finish(corrs, r, times)),
+                None => Err(GrpsSolveError::NoEndPoint { attempts: s.attempts, last: None }),
+            },
+            Err(PipelineError::NotValidated(b)) => match report(&b, times) {
+                Some(r) => Err(GrpsSolveError::NotValidated(Box::new(r))),
+                None => Err(GrpsSolveError::NoEndPoint { attempts: b.attempts, last: None }),
+            },
+            Err(PipelineError::NoEndPoint { attempts, last }) => Err(GrpsSolveError::NoEndPoint { attempts, last }),
+            Err(PipelineError::Input(never)) => match never {},
         }
     }
 
-    /// The attempts (start hypothesis, method) in order (module docs).
-    fn schedule(&self, base_kind: StartKind) -> Vec<(StartKind, Method)> {
+    /// The pipeline of the first `N` correspondences (GRPS7 or GRPS8; every correspondence
+    /// validates), handed to `run`: the geometric simulator first, the generic one as
+    /// [`simhc::pipeline::Method::OtherSimulatorHc`]`(0)`, the all-roots fallback from the
+    /// hypotheses' base.
+    fn pipeline<P, const N: usize, const NF: usize, const NP: usize, const NC: usize, R>(
+        &self,
+        hypotheses: &Hypotheses<'_>,
+        params: fn(&[Row; N]) -> SVector<f64, NP>,
+        run: impl FnOnce(GrpsPipeline<'_, P, N, NF, NP, NC>) -> R,
+    ) -> R
+    where
+        P: CoefficientForm<8, NF, NP, NC> + ParamDerivative<8, NF, NP>,
+    {
         let o = &self.options;
-        let first: Vec<Method> = o.methods.iter().flatten().copied().collect();
-        let mut schedule: Vec<(StartKind, Method)> = first.iter().map(|&m| (base_kind, m)).collect();
+        let providers: Vec<Hypothesis> = hypotheses.kinds.iter().map(|&kind| Hypothesis { set: hypotheses, kind }).collect();
+        let starts: Vec<&dyn StartProvider<[GrpsCorrespondence], 8>> = providers.iter().map(|h| h as &dyn StartProvider<[GrpsCorrespondence], 8>).collect();
+        let (target, geometric) = (FirstRows(params), GeometricSimulator(params));
+        let generic = Generic(MinNormSimulator::<P>::new());
+        let others: [&dyn StartSimulator<[GrpsCorrespondence], 8, NF, NP>; 1] = [&generic];
+        let validator = GrpsValidator { accept_angle: o.accept_angle, plausible_angle: o.plausible_angle, max_behind: o.max_behind };
+        let fallback = AllRootsFallback { base: hypotheses.base, newton: o.newton };
+        let options = PipelineOptions { tracker: o.tracker, extra_attempts: o.extra_attempts, fallback: o.all_roots_fallback && o.max_attempts > 1, newton: o.newton };
+        run(Pipeline::new(&target, &starts, &geometric, &validator).with_other_simulators(&others).with_fallback(&fallback).with_options(options))
+    }
+
+    /// The start hypotheses and the attempts in order (module docs): `schedule[i].provider`
+    /// indexes the hypotheses.
+    fn schedule(&self, base_kind: StartKind) -> (Vec<StartKind>, Vec<Attempt>) {
+        let o = &self.options;
+        let first: Vec<pipeline::Method> = o.methods.iter().flatten().filter_map(|m| m.in_pipeline()).collect();
+        let mut kinds = vec![base_kind];
         if base_kind == StartKind::Prediction {
-            for kind in [StartKind::PredictedRotation, StartKind::Swapped, StartKind::SwappedRotation] {
-                schedule.extend(first.iter().map(|&m| (kind, m)));
-            }
+            kinds.extend([StartKind::PredictedRotation, StartKind::Swapped, StartKind::SwappedRotation]);
         }
-        if let Some(m) = o.restart_method {
-            for a in 0..o.restart_angles_deg.len() as u8 {
-                schedule.extend((0..AXES.len() as u8).map(|k| (StartKind::Perturbed(a * AXES.len() as u8 + k), m)));
+        let mut schedule: Vec<Attempt> = (0..kinds.len()).flat_map(|provider| first.iter().map(move |&method| Attempt { provider, method })).collect();
+        if let Some(method) = o.restart_method.and_then(Method::in_pipeline) {
+            for k in 0..(o.restart_angles_deg.len() * AXES.len()) as u8 {
+                schedule.push(Attempt { provider: kinds.len(), method });
+                kinds.push(StartKind::Perturbed(k));
             }
         }
         schedule.truncate(o.max_attempts);
-        schedule
+        (kinds, schedule)
     }
 
     /// Up to `max` distinct plausible end points (no fallback): the hypotheses of a RANSAC
@@ -584,29 +597,23 @@ impl GrpsSolver {
     pub fn candidates(&self, corrs: &[GrpsCorrespondence], max: usize) -> Result<Vec<GrpsPose>, GrpsSolveError> {
         validate(corrs)?;
         let frame = frame_of(corrs)?;
-        let user = corrs;
-        let corrs = &frame.canonical(user)[..];
-        let base = self.predict_canonical(corrs)?;
-        let mut times = StageTimes::default();
-        let mut swapped = None;
-        let mut current: Option<(StartKind, Option<GrpsPose>)> = None;
-        let mut out: Vec<GrpsPose> = Vec::new();
-        for (kind, method) in self.schedule(StartKind::Prediction) {
-            if out.len() >= max {
-                break;
-            }
-            if current.is_none_or(|(k, _)| k != kind) {
-                current = Some((kind, self.start_hypothesis(kind, &base, corrs, &mut times, &mut swapped)));
-            }
-            let Some((_, Some(start))) = current else { continue };
-            let Ok((pose, _)) = self.attempt(corrs, &start, method, &mut times) else { continue };
-            let validation = Validation::of(&pose, corrs);
-            let distinct = out.iter().all(|p| (p.rotation - pose.rotation).norm() > 1e-6 || (p.translation - pose.translation).norm() > 1e-6 * (1.0 + p.translation.norm()));
-            if validation.passes(self.options.plausible_angle, self.options.max_behind) && distinct {
-                out.push(pose);
-            }
-        }
-        Ok(out.iter().map(|p| from_canonical(&frame, p)).collect())
+        let canonical = frame.canonical(corrs);
+        let (kinds, schedule) = self.schedule(StartKind::Prediction);
+        let hypotheses = Hypotheses::new(self, self.predict_canonical(&canonical)?, kinds);
+        let same = |a: &SVector<f64, 8>, b: &SVector<f64, 8>| match (GrpsPose::from_unknowns(a), GrpsPose::from_unknowns(b)) {
+            (Some(a), Some(b)) => (a.rotation - b.rotation).norm() <= 1e-6 && (a.translation - b.translation).norm() <= 1e-6 * (1.0 + a.translation.norm()),
+            _ => false,
+        };
+        let found = if canonical.len() == 7 {
+            self.pipeline::<Grps7, 7, 8, 84, 266, _>(&hypotheses, Grps7::params, |p| p.with_schedule(&schedule).plausible_end_points(&canonical[..], max, same))
+        } else {
+            self.pipeline::<Grps8, 8, 9, 96, 304, _>(&hypotheses, Grps8::params, |p| p.with_schedule(&schedule).plausible_end_points(&canonical[..], max, same))
+        };
+        let found = match found {
+            Ok(found) => found,
+            Err(never) => match never {},
+        };
+        Ok(found.iter().filter_map(|s| GrpsPose::from_unknowns(&s.x)).map(|p| from_canonical(&frame, &p)).collect())
     }
 
     /// With more than 8 correspondences: refine on all of them.
@@ -626,71 +633,150 @@ impl GrpsSolver {
         report.times = *times;
         report
     }
+}
 
-    fn start_hypothesis(
-        &self,
-        kind: StartKind,
-        base: &GrpsPose,
-        corrs: &[GrpsCorrespondence],
-        times: &mut StageTimes,
-        swapped: &mut Option<Option<GrpsPose>>,
-    ) -> Option<GrpsPose> {
-        // The least-squares (t, s) of a rotation; the fallback's when that fails.
-        let with_ls = |rotation: Matrix3<f64>, fallback: &GrpsPose| match translation_scale_for_rotation(&rotation, corrs) {
-            Some((t, s)) if s > 0.0 => GrpsPose { rotation, translation: t, scale: s },
-            _ => GrpsPose { rotation, ..*fallback },
+/// The pipeline of GRPS on its first `N` correspondences.
+type GrpsPipeline<'a, P, const N: usize, const NF: usize, const NP: usize, const NC: usize> =
+    Pipeline<'a, P, [GrpsCorrespondence], FirstRows<N, NP>, GeometricSimulator<N, NP>, GrpsValidator, 8, NF, NP, NC>;
+
+/// The start hypotheses of one solve around `base` (module docs, step 3). The swapped
+/// prediction is computed once, by the first swapped hypothesis asked.
+struct Hypotheses<'s> {
+    solver: &'s GrpsSolver,
+    base: GrpsPose,
+    /// The hypotheses in the schedule's order ([`GrpsSolver::schedule`]).
+    kinds: Vec<StartKind>,
+    swapped: OnceCell<Option<GrpsPose>>,
+    /// Time spent in the regressor for the swapped prediction.
+    regressor: Cell<Duration>,
+}
+
+impl<'s> Hypotheses<'s> {
+    fn new(solver: &'s GrpsSolver, base: GrpsPose, kinds: Vec<StartKind>) -> Self {
+        Self { solver, base, kinds, swapped: OnceCell::new(), regressor: Cell::new(Duration::ZERO) }
+    }
+
+    /// The start of hypothesis `kind` for the canonical `corrs`.
+    fn start(&self, kind: StartKind, corrs: &[GrpsCorrespondence]) -> Option<GrpsPose> {
+        let base = &self.base;
+        // The rotation with its least-squares (t, s), if `s > 0`.
+        let least_squares = |rotation: Matrix3<f64>| {
+            let (translation, scale) = translation_scale_for_rotation(&rotation, corrs)?;
+            (scale > 0.0).then_some(GrpsPose { rotation, translation, scale })
         };
         match kind {
             StartKind::Prediction | StartKind::Given => Some(*base),
-            StartKind::PredictedRotation => {
-                let (t, s) = translation_scale_for_rotation(&base.rotation, corrs)?;
-                (s > 0.0).then_some(GrpsPose { rotation: base.rotation, translation: t, scale: s })
-            }
-            StartKind::SwappedRotation => {
-                let p = (*swapped).flatten()?;
-                let (t, s) = translation_scale_for_rotation(&p.rotation, corrs)?;
-                (s > 0.0).then_some(GrpsPose { rotation: p.rotation, translation: t, scale: s })
-            }
-            StartKind::Swapped => {
-                let tr = Instant::now();
-                // The swapped canonical views are canonical too.
-                let views = swap_views(corrs);
-                let p = self.predict_canonical(&views).ok();
-                times.regressor += tr.elapsed();
-                let pose = p.map(|p| {
-                    let (rotation, translation, scale) = swap_pose(&p.rotation, &p.translation, p.scale);
-                    GrpsPose { rotation, translation, scale }
-                });
-                *swapped = Some(pose);
-                pose
-            }
+            StartKind::PredictedRotation => least_squares(base.rotation),
+            StartKind::Swapped => self.swapped(corrs),
+            StartKind::SwappedRotation => least_squares(self.swapped(corrs)?.rotation),
             StartKind::Perturbed(k) => {
                 let (angle, axis) = (k as usize / AXES.len(), k as usize % AXES.len());
-                let angle = self.options.restart_angles_deg.get(angle).copied().unwrap_or(20.0);
+                let angle = self.solver.options.restart_angles_deg.get(angle).copied().unwrap_or(20.0);
                 let axis = Unit::new_normalize(Vector3::from(AXES[axis]));
                 let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
-                let rot = Rotation3::from_axis_angle(&axis, sign * angle.to_radians()).into_inner();
-                Some(with_ls(rot * base.rotation, base))
+                let rotation = Rotation3::from_axis_angle(&axis, sign * angle.to_radians()).into_inner() * base.rotation;
+                Some(least_squares(rotation).unwrap_or(GrpsPose { rotation, ..*base }))
             }
         }
     }
 
-    /// One attempt from `start` with `method` on the first 7 or 8 correspondences.
-    fn attempt(
-        &self,
-        corrs: &[GrpsCorrespondence],
-        start: &GrpsPose,
-        method: Method,
-        times: &mut StageTimes,
-    ) -> Result<(GrpsPose, TrackStats), AttemptError> {
-        if method == Method::AllRoots {
-            return Err(AttemptError::NotAPose);
+    /// The regressor on the swapped problem (view 2 first), mapped back.
+    fn swapped(&self, corrs: &[GrpsCorrespondence]) -> Option<GrpsPose> {
+        *self.swapped.get_or_init(|| {
+            let t = Instant::now();
+            // The swapped canonical views are canonical too.
+            let p = self.solver.predict_canonical(&swap_views(corrs)).ok();
+            self.regressor.set(self.regressor.get() + t.elapsed());
+            p.map(|p| {
+                let (rotation, translation, scale) = swap_pose(&p.rotation, &p.translation, p.scale);
+                GrpsPose { rotation, translation, scale }
+            })
+        })
+    }
+}
+
+/// One start hypothesis as a start provider of the pipeline.
+struct Hypothesis<'h, 's> {
+    set: &'h Hypotheses<'s>,
+    kind: StartKind,
+}
+
+impl StartProvider<[GrpsCorrespondence], 8> for Hypothesis<'_, '_> {
+    fn name(&self) -> &'static str {
+        self.kind.name()
+    }
+
+    fn start(&self, corrs: &[GrpsCorrespondence]) -> Result<SVector<f64, 8>, StartError> {
+        self.set.start(self.kind, corrs).map(|p| p.unknowns()).ok_or_else(|| StartError {
+            provider: self.kind.name(),
+            reason: "no start: no least-squares translation and positive scale, or no swapped prediction".to_string(),
+        })
+    }
+}
+
+/// The parameters of the first `N` correspondences (checked input: infallible).
+struct FirstRows<const N: usize, const NP: usize>(fn(&[Row; N]) -> SVector<f64, NP>);
+
+impl<const N: usize, const NP: usize> TargetParameters<[GrpsCorrespondence], NP> for FirstRows<N, NP> {
+    type Error = Infallible;
+    fn params(&self, corrs: &[GrpsCorrespondence]) -> Result<SVector<f64, NP>, Infallible> {
+        Ok((self.0)(&rows_array::<N>(corrs)))
+    }
+}
+
+/// The paper's geometric simulator on the first `N` correspondences
+/// ([`geometric_start_params`]).
+struct GeometricSimulator<const N: usize, const NP: usize>(fn(&[Row; N]) -> SVector<f64, NP>);
+
+impl<const N: usize, const NF: usize, const NP: usize> StartSimulator<[GrpsCorrespondence], 8, NF, NP> for GeometricSimulator<N, NP> {
+    fn simulate(&self, corrs: &[GrpsCorrespondence], x0: &SVector<f64, 8>, _p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, SimulatorError> {
+        let start = GrpsPose::from_unknowns(x0).ok_or(SimulatorError::NonFinite)?;
+        geometric_start_params::<N, NP>(corrs, &start, self.0)
+    }
+}
+
+/// [`Validation`] on every correspondence, with the thresholds of the options.
+struct GrpsValidator {
+    accept_angle: f64,
+    plausible_angle: f64,
+    max_behind: usize,
+}
+
+impl Validator<[GrpsCorrespondence], 8> for GrpsValidator {
+    type Check = Validation;
+
+    fn check(&self, corrs: &[GrpsCorrespondence], x: &SVector<f64, 8>) -> Validation {
+        match GrpsPose::from_unknowns(x) {
+            Some(pose) => Validation::of(&pose, corrs),
+            None => Validation { max_angle: f64::INFINITY, behind: corrs.len(), positive_scale: false },
         }
-        if corrs.len() == 7 {
-            attempt_n::<Grps7, 7, 8, 84, 266>(corrs, start, method, &self.options, Grps7::params, times)
+    }
+
+    fn verdict(&self, v: &Validation) -> Verdict {
+        if v.passes(self.accept_angle, 0) {
+            Verdict::Accept
+        } else if v.passes(self.plausible_angle, self.max_behind) {
+            Verdict::Plausible
         } else {
-            attempt_n::<Grps8, 8, 9, 96, 304>(&corrs[..8], start, method, &self.options, Grps8::params, times)
+            Verdict::Reject
         }
+    }
+
+    fn better(&self, a: &Validation, b: &Validation) -> bool {
+        a.key() < b.key()
+    }
+}
+
+/// The all-roots fallback ([`GrpsSolverOptions::all_roots_fallback`]) as the pipeline's: one
+/// candidate, the best root by [`all_roots_fallback`].
+struct AllRootsFallback {
+    base: GrpsPose,
+    newton: NewtonOptions,
+}
+
+impl<const NP: usize> Fallback<[GrpsCorrespondence], 8, NP> for AllRootsFallback {
+    fn candidates(&self, corrs: &[GrpsCorrespondence], _p: &SVector<f64, NP>) -> Vec<SVector<f64, 8>> {
+        all_roots_fallback(corrs, &self.base, &self.newton).map(|pose| pose.unknowns()).into_iter().collect()
     }
 }
 
@@ -750,8 +836,8 @@ pub fn geometric_start_params<const N: usize, const NP: usize>(
 }
 
 /// The all-roots fallback ([`GrpsSolverOptions::all_roots_fallback`]): the best real root of
-/// the first 7 correspondences with its validation.
-fn all_roots_fallback(corrs: &[GrpsCorrespondence], start: &GrpsPose, newton: &NewtonOptions) -> Option<(GrpsPose, Validation)> {
+/// the first 7 correspondences, validated on all of them.
+fn all_roots_fallback(corrs: &[GrpsCorrespondence], start: &GrpsPose, newton: &NewtonOptions) -> Option<GrpsPose> {
     let p7 = Grps7::params(&rows_array::<7>(corrs));
     let result = crate::start_systems::solve_grps7(&p7, &simhc::all_roots::AllRootsOptions::default());
     let p8 = (corrs.len() >= 8).then(|| Grps8::params(&rows_array::<8>(corrs)));
@@ -776,61 +862,5 @@ fn all_roots_fallback(corrs: &[GrpsCorrespondence], start: &GrpsPose, newton: &N
             best = Some((pose, validation, distance));
         }
     }
-    best.map(|(p, v, _)| (p, v))
-}
-
-fn attempt_n<P, const N: usize, const NF: usize, const NP: usize, const NC: usize>(
-    corrs: &[GrpsCorrespondence],
-    start: &GrpsPose,
-    method: Method,
-    options: &GrpsSolverOptions,
-    params: fn(&[Row; N]) -> SVector<f64, NP>,
-    times: &mut StageTimes,
-) -> Result<(GrpsPose, TrackStats), AttemptError>
-where
-    P: CoefficientForm<8, NF, NP, NC> + ParamDerivative<8, NF, NP>,
-{
-    let ts = Instant::now();
-    let p1 = params(&rows_array::<N>(corrs));
-    let x0 = start.unknowns();
-    let (x, stats) = match method {
-        Method::AllRoots => return Err(AttemptError::NotAPose),
-        Method::GaussNewton => {
-            // The pipeline's acceptance rule: converged, or a last update below 1e-7.
-            let r = simhc::pipeline::path::gauss_newton::<P, 8, NF, NP>(&x0, &p1, &options.newton);
-            times.tracking += ts.elapsed();
-            r?
-        }
-        Method::Hc(kind) => {
-            let p0 = match kind {
-                SimulatorKind::Geometric => geometric_start_params::<N, NP>(corrs, start, params),
-                SimulatorKind::Generic => MinNormSimulator::<P>::new().run::<8, NF, NP>(&x0, &p1),
-            };
-            times.simulator += ts.elapsed();
-            let p0 = p0?;
-            let tt = Instant::now();
-            let h = CoefficientLine::<P, f64, NP, NC>::new::<8, NF>(&p0, &p1);
-            let r = track(&h, &x0, &options.tracker);
-            // The tracker returns end points that missed the final tolerance
-            // (`require_final_convergence: false`): on noisy overdetermined systems Gauss-Newton
-            // converges only linearly at the least-squares point. Polish; validation decides.
-            let r = r.and_then(|r| {
-                if r.accuracy <= 1e-7 {
-                    return Ok((r.x, r.stats));
-                }
-                let n = solve_newton::<P, f64, 8, NF, NP>(&r.x, &p1, &options.newton)?;
-                let mut stats = r.stats;
-                stats.newton_iterations += n.iterations;
-                if n.converged || n.accuracy <= 1e-7 {
-                    Ok((n.x, stats))
-                } else {
-                    Err(TrackError::CorrectorDidNotConverge { t: 1.0 })
-                }
-            });
-            times.tracking += tt.elapsed();
-            r?
-        }
-    };
-    let pose = GrpsPose::from_unknowns(&x).ok_or(AttemptError::NotAPose)?;
-    Ok((pose, stats))
+    best.map(|(p, _, _)| p)
 }

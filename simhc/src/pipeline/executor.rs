@@ -41,6 +41,8 @@ pub struct Pipeline<'a, P, D: ?Sized, T, S: ?Sized, V, const NX: usize, const NF
     pub starts: &'a [&'a dyn StartProvider<D, NX>],
     /// The online simulator.
     pub simulator: &'a S,
+    /// Other simulators, for [`Method::OtherSimulatorHc`] attempts.
+    pub other_simulators: &'a [&'a dyn StartSimulator<D, NX, NF, NP>],
     /// The validation of end points.
     pub validator: &'a V,
     /// Candidates when no path validated.
@@ -67,7 +69,14 @@ where
 {
     /// The pipeline of these pieces with default options and no fallback.
     pub fn new(target: &'a T, starts: &'a [&'a dyn StartProvider<D, NX>], simulator: &'a S, validator: &'a V) -> Self {
-        Self { target, starts, simulator, validator, fallback: None, schedule: None, options: PipelineOptions::default(), problem: PhantomData }
+        Self { target, starts, simulator, other_simulators: &[], validator, fallback: None, schedule: None, options: PipelineOptions::default(), problem: PhantomData }
+    }
+
+    /// The same pipeline with other simulators, which [`Method::OtherSimulatorHc`] attempts of
+    /// the schedule name by index.
+    pub fn with_other_simulators(mut self, simulators: &'a [&'a dyn StartSimulator<D, NX, NF, NP>]) -> Self {
+        self.other_simulators = simulators;
+        self
     }
 
     /// The same pipeline with a fallback.
@@ -133,6 +142,52 @@ where
         self.run(data, starts, None, fallback)
     }
 
+    /// Up to `max` end points that are accepted or plausible, in the order of the schedule,
+    /// leaving out those `same` as one already found; no fallback. The hypotheses of a RANSAC
+    /// sample: with a minimal sample every real root is exact, and the consensus picks.
+    pub fn plausible_end_points(&self, data: &D, max: usize, same: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool) -> Result<Vec<Solved<V::Check, NX>>, T::Error> {
+        let mut times = StageTimes::default();
+        let p = self.target.params(data)?;
+        let default_schedule: Vec<Attempt> = (0..self.starts.len()).map(|provider| Attempt { provider, method: Method::SimulatorHc }).collect();
+        let schedule = self.schedule.unwrap_or(&default_schedule);
+        let mut found: Vec<Solved<V::Check, NX>> = Vec::new();
+        let mut current: Option<(usize, Option<SVector<f64, NX>>)> = None;
+        for (attempts, &Attempt { provider, method }) in schedule.iter().enumerate() {
+            if found.len() >= max {
+                break;
+            }
+            let Some(start) = self.starts.get(provider) else { continue };
+            if current.as_ref().is_none_or(|(k, _)| *k != provider) {
+                current = Some((provider, start.start(data).ok()));
+            }
+            let Some((_, Some(x0))) = current else { continue };
+            let Ok((x, stats)) = self.attempt(data, &x0, &p, method, &mut times) else { continue };
+            let check = self.validator.check(data, &x);
+            if self.validator.verdict(&check) != Verdict::Reject && !found.iter().any(|s| same(&s.x, &x)) {
+                found.push(Solved { x, start: x0, origin: Origin::Path { provider, method }, attempts: attempts + 1, check, stats, times });
+            }
+        }
+        Ok(found)
+    }
+
+    /// One attempt from `x0` with `method`; adds its time to `times`.
+    fn attempt(&self, data: &D, x0: &SVector<f64, NX>, p: &SVector<f64, NP>, method: Method, times: &mut StageTimes) -> Result<(SVector<f64, NX>, TrackStats), AttemptError> {
+        let o = &self.options;
+        match method {
+            Method::SimulatorHc => simulator_hc::<P, D, S, NX, NF, NP, NC>(data, self.simulator, x0, p, o, times),
+            Method::OtherSimulatorHc(k) => match self.other_simulators.get(k) {
+                Some(&other) => simulator_hc::<P, D, dyn StartSimulator<D, NX, NF, NP>, NX, NF, NP, NC>(data, other, x0, p, o, times),
+                None => Err(AttemptError::Start(StartError { provider: "schedule", reason: format!("no other simulator {k}") })),
+            },
+            Method::GaussNewton => {
+                let t = Instant::now();
+                let end = gauss_newton::<P, NX, NF, NP>(x0, p, &o.newton);
+                times.tracking += t.elapsed();
+                end.map_err(AttemptError::from)
+            }
+        }
+    }
+
     fn run(&self, data: &D, starts: &[&dyn StartProvider<D, NX>], schedule: Option<&[Attempt]>, fallback: bool) -> Outcome<T, V, D, NX, NP> {
         let o = &self.options;
         let mut times = StageTimes::default();
@@ -161,26 +216,21 @@ where
                 last = Some(AttemptError::Start(StartError { provider: "schedule", reason: format!("no start provider {provider}") }));
                 continue;
             };
-            attempts += 1;
             if current.as_ref().is_none_or(|(k, _)| *k != provider) {
                 let ts = Instant::now();
                 current = Some((provider, start.start(data)));
                 times.start += ts.elapsed();
             }
-            let x0 = current.as_ref().map(|(_, x)| x.clone()).expect("set above");
-            let attempt = x0.map_err(AttemptError::from).and_then(|x0| {
-                let end = match method {
-                    Method::SimulatorHc => simulator_hc::<P, D, S, NX, NF, NP, NC>(data, self.simulator, &x0, &p, &o.tracker, &mut times),
-                    Method::GaussNewton => {
-                        let t = Instant::now();
-                        let end = gauss_newton::<P, NX, NF, NP>(&x0, &p, &o.newton);
-                        times.tracking += t.elapsed();
-                        end.map_err(AttemptError::from)
-                    }
-                };
-                end.map(|r| (x0, r))
-            });
-            let (x0, (x, stats)) = match attempt {
+            // A provider without a start for this data makes no attempt.
+            let x0 = match current.as_ref().map(|(_, x)| x.clone()).expect("set above") {
+                Ok(x0) => x0,
+                Err(e) => {
+                    last = Some(e.into());
+                    continue;
+                }
+            };
+            attempts += 1;
+            let (x, stats) = match self.attempt(data, &x0, &p, method, &mut times) {
                 Ok(r) => r,
                 Err(e) => {
                     last = Some(e);

@@ -146,9 +146,12 @@ pub struct StageTimes {
 /// How an attempt goes from its start to an end point.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Method {
-    /// One Simulator HC path (the paper's method).
+    /// One Simulator HC path (the paper's method) with the pipeline's simulator.
     #[default]
     SimulatorHc,
+    /// One Simulator HC path with another simulator: number `k` of
+    /// [`Pipeline::with_other_simulators`] (a problem with a geometric and a generic one).
+    OtherSimulatorHc(usize),
     /// Gauss-Newton on the target system from the start (no homotopy).
     GaussNewton,
 }

@@ -3,21 +3,24 @@
 //! Gauss-Newton on the target system (the paper's "Pred + LM" baseline, and a cheap first try
 //! when starts are good).
 
-use super::{AttemptError, StageTimes, StartSimulator};
+use super::{AttemptError, PipelineOptions, StageTimes, StartSimulator};
 use crate::homotopy::CoefficientLine;
-use crate::tracker::{solve_newton, track, NewtonOptions, TrackError, TrackStats, TrackerOptions};
+use crate::tracker::{solve_newton, track, NewtonOptions, TrackError, TrackResult, TrackStats, TrackerOptions};
 use crate::CoefficientForm;
 use nalgebra::SVector;
 use std::time::Instant;
 
 /// Tracks `x0` from the simulated start problem to the target parameters `p`; adds the
-/// simulator's and the tracker's time to `times`.
+/// simulator's and the tracker's time to `times`. With a tracker that returns end points that
+/// missed its final tolerance (`require_final_convergence: false`), such an end point is
+/// polished by [`gauss_newton`] with `options.newton` (on noisy overdetermined systems
+/// Gauss-Newton converges only linearly at the least-squares point); validation decides.
 pub fn simulator_hc<P, D, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize>(
     data: &D,
     simulator: &S,
     x0: &SVector<f64, NX>,
     p: &SVector<f64, NP>,
-    tracker: &TrackerOptions,
+    options: &PipelineOptions,
     times: &mut StageTimes,
 ) -> Result<(SVector<f64, NX>, TrackStats), AttemptError>
 where
@@ -31,10 +34,29 @@ where
     let p0 = p0?;
     let tt = Instant::now();
     let h = CoefficientLine::<P, f64, NP, NC>::new::<NX, NF>(&p0, p);
-    let result = track(&h, x0, tracker);
+    let result = track(&h, x0, &options.tracker).and_then(|r| polish::<P, NX, NF, NP>(r, p, &options.tracker, &options.newton));
     times.tracking += tt.elapsed();
-    let result = result?;
-    Ok((result.x, result.stats))
+    Ok(result?)
+}
+
+/// The end point of a path, polished by [`gauss_newton`] when the tracker returned it short of
+/// the accuracy `1e-7` (only a tracker without `require_final_convergence` does).
+fn polish<P, const NX: usize, const NF: usize, const NP: usize>(
+    r: TrackResult<f64, NX>,
+    p: &SVector<f64, NP>,
+    tracker: &TrackerOptions,
+    newton: &NewtonOptions,
+) -> Result<(SVector<f64, NX>, TrackStats), TrackError>
+where
+    P: crate::Problem<NX, NF, NP>,
+{
+    if tracker.require_final_convergence || r.accuracy <= 1e-7 {
+        return Ok((r.x, r.stats));
+    }
+    let (x, polish) = gauss_newton::<P, NX, NF, NP>(&r.x, p, newton)?;
+    let mut stats = r.stats;
+    stats.newton_iterations += polish.newton_iterations;
+    Ok((x, stats))
 }
 
 /// Gauss-Newton from `x0` on the target parameters `p`. Accepted when it converged or its last

@@ -7,6 +7,13 @@
 //! to the end ([`Tracker::track`], or the free function [`track`]), and a typed result:
 //! [`TrackResult`] or a [`TrackError`] code. Nothing here panics on bad input or bad numerics.
 //!
+//! One file per concern: `options` (settings), `path` (the algorithm, once: [`TrackerState`] is
+//! a state machine that asks for evaluations and takes their results), this module (the scalar
+//! driver, [`Tracker`]), [`batch`] (the lane driver: one path per SIMD lane), `corrector`
+//! (one Newton run, fed update by update; [`newton`]), `predictor` (tangents, Hermite
+//! extrapolation), `step_size` (the step rules), `result` (results and stop codes), `linalg`,
+//! `lane_lu` and `factor` (the dense solves).
+//!
 //! One step from `(x, t)`:
 //! 1. **Predictor** ([`Predictor`], default RK4) on `J_x dx/dt = -dH/dt`; the tangent at `(x, t)`
 //!    comes for free from the previous corrector's factorization, the other stages factorize the

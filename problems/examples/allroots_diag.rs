@@ -14,9 +14,10 @@
 //! shrink about like `1 - t` from `t = 0.5` on, so nearly half of the accepted steps start
 //! within `0.1` of the target (measured on seeds 0-3).
 
-use nalgebra::{Complex, SMatrix, SVector};
+use nalgebra::{SMatrix, SVector};
 use simhc::all_roots::{AllRootsOptions, CoefficientParameterHomotopy};
 use simhc::homotopy::{Homotopy, ParameterHomotopy};
+use simhc::scalar::C;
 use simhc::tracker::batch::{track_batch, LaneSystem};
 use simhc::tracker::{TrackError, TrackStats, Tracker, TrackerOptions, TrackerStatus};
 use simhc::{CoefficientForm, Problem};
@@ -25,8 +26,6 @@ use simhc_problems::grps::{self, Grps7};
 use simhc_problems::start_systems::{grps7_aligned_target, grps7_start, solve_grps7};
 use std::hint::black_box;
 use std::time::Instant;
-
-type C = Complex<f64>;
 
 /// Mean time of `f` in microseconds over `n` calls.
 fn time_us(n: usize, mut f: impl FnMut()) -> f64 {
@@ -128,7 +127,7 @@ fn main() {
             if let Ok(which) = std::env::var("BATCHONLY") {
                 let system = if which == "coefficients" { &coefficients } else { &parameters };
                 for _ in 0..20 {
-                    black_box(batch(system));
+                    let _ = black_box(batch(system));
                 }
                 continue;
             }

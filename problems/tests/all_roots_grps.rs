@@ -381,13 +381,14 @@ fn batch_tracking_agrees_with_one_path_at_a_time() {
 }
 
 /// The batch tracker reports bad start points as typed errors in their slots (the other paths
-/// are unaffected), an exhausted step budget as `MaxSteps`, and declines settings it does not
-/// run (fixed steps, drag steps, Euler) with `None`.
+/// are unaffected), an exhausted step budget as `MaxSteps`; misuse — settings it does not run
+/// (fixed steps, drag steps, Euler), start or settings indices that do not exist — is a
+/// `BatchError`, apart from the paths' `TrackError`s.
 #[test]
 fn batch_tracker_reports_bad_input_per_path() {
     use simhc::all_roots::{all_roots_tracker, CoefficientParameterHomotopy};
     use simhc::homotopy::ParameterHomotopy;
-    use simhc::tracker::batch::{track_batch, LaneSystem};
+    use simhc::tracker::batch::{track_batch, BatchError, LaneSystem};
     use simhc::tracker::{Predictor, TrackError, TrackerOptions};
     let start = grps7_start();
     let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(11).unwrap();
@@ -403,10 +404,10 @@ fn batch_tracker_reports_bad_input_per_path() {
     starts[3][0] = C::new(1e12, 0.0);
     let opts = all_roots_tracker();
     let run = |idx: &[usize], o: &TrackerOptions| track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &starts, idx, o);
-    let r = run(&[0, 1, 2, 3, 4, 9], &opts).unwrap();
+    assert_eq!(run(&[0, 1, 9], &opts), Err(BatchError::NoStartPoint { index: 9, available: 5 }));
+    let r = run(&[0, 1, 2, 3, 4], &opts).unwrap();
     assert_eq!(r[1], Err(TrackError::NonFinite { t: 0.0 }));
     assert_eq!(r[3], Err(TrackError::DivergedToInfinity { t: 0.0 }));
-    assert_eq!(r[5], Err(TrackError::NoStartPoint { index: 9, available: 5 }));
     for k in [0, 2, 4] {
         let ok = r[k].as_ref().expect("a regular start point is tracked");
         assert_eq!(ok.t, 1.0);
@@ -414,36 +415,48 @@ fn batch_tracker_reports_bad_input_per_path() {
     }
     let tight = TrackerOptions { max_steps: 3, ..opts };
     assert!(matches!(run(&[0], &tight).unwrap()[0], Err(TrackError::MaxSteps { .. })));
-    assert!(run(&[0], &TrackerOptions::paper(0.05)).is_none(), "fixed steps");
-    assert!(run(&[0], &TrackerOptions::single_path()).is_none(), "drag steps");
-    assert!(run(&[0], &TrackerOptions { predictor: Predictor::Euler, ..opts }).is_none());
-    // A queue naming settings that do not exist gets a typed error for that job; settings the
-    // lanes do not run decline the whole call.
-    use simhc::tracker::batch::{track_batch_queue, LaneIsa, PathJob, PathQueue};
-    struct Jobs(Vec<PathJob>, Vec<(PathJob, Result<simhc::tracker::TrackResult<C, 8>, TrackError>)>);
+    let unsupported = Err(BatchError::UnsupportedSettings { index: 0 });
+    assert_eq!(run(&[0], &TrackerOptions::paper(0.05)), unsupported, "fixed steps");
+    assert_eq!(run(&[0], &TrackerOptions::single_path()), unsupported, "drag steps");
+    assert_eq!(run(&[0], &TrackerOptions { predictor: Predictor::Euler, ..opts }), unsupported);
+    // A queue naming a start point or settings that do not exist gets a typed error for that
+    // job (the others are tracked); settings the lanes do not run decline the whole call.
+    use simhc::tracker::batch::{track_batch_queue, LaneIsa, PathJob, PathQueue, PathResult};
+    struct Jobs(Vec<PathJob>, Vec<(PathJob, PathResult<8>)>, Vec<(PathJob, BatchError)>);
     impl PathQueue<8> for Jobs {
         fn next(&mut self) -> Option<PathJob> {
             self.0.pop()
         }
-        fn finished(&mut self, job: PathJob, result: Result<simhc::tracker::TrackResult<C, 8>, TrackError>) {
+        fn finished(&mut self, job: PathJob, result: PathResult<8>) {
             self.1.push((job, result));
         }
-    }
-    let jobs = vec![PathJob { id: 0, start: 0, settings: 1 }, PathJob { id: 1, start: 2, settings: 0 }];
-    let mut queue = Jobs(jobs.clone(), Vec::new());
-    let isa = LaneIsa::detect();
-    assert!(track_batch_queue::<Grps7, _, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &starts, &[opts], &mut queue));
-    assert_eq!(queue.1.len(), 2);
-    for (job, result) in &queue.1 {
-        match job.id {
-            0 => assert_eq!(*result, Err(TrackError::NoTrackerSettings { index: 1, available: 1 })),
-            _ => assert!(result.is_ok(), "{result:?}"),
+        fn refused(&mut self, job: PathJob, error: BatchError) {
+            self.2.push((job, error));
         }
     }
-    let mut queue = Jobs(jobs, Vec::new());
+    let jobs = vec![
+        PathJob { id: 0, start: 0, settings: 1 },
+        PathJob { id: 1, start: 2, settings: 0 },
+        PathJob { id: 2, start: 5, settings: 0 },
+    ];
+    let mut queue = Jobs(jobs.clone(), Vec::new(), Vec::new());
+    let isa = LaneIsa::detect();
+    assert_eq!(track_batch_queue::<Grps7, _, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &starts, &[opts], &mut queue), Ok(()));
+    assert_eq!(queue.1.len(), 1);
+    assert_eq!(queue.1[0].0.id, 1);
+    assert!(queue.1[0].1.is_ok(), "{:?}", queue.1[0].1);
+    assert_eq!(
+        queue.2,
+        [
+            (jobs[2], BatchError::NoStartPoint { index: 5, available: 5 }),
+            (jobs[0], BatchError::NoTrackerSettings { index: 1, available: 1 }),
+        ]
+    );
+    let mut queue = Jobs(jobs, Vec::new(), Vec::new());
     let settings = [opts, TrackerOptions::paper(0.05)];
-    assert!(!track_batch_queue::<Grps7, _, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &starts, &settings, &mut queue));
-    assert!(queue.1.is_empty(), "nothing tracked");
+    let declined = track_batch_queue::<Grps7, _, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &starts, &settings, &mut queue);
+    assert_eq!(declined, Err(BatchError::UnsupportedSettings { index: 1 }));
+    assert!(queue.1.is_empty() && queue.2.is_empty(), "nothing tracked");
 }
 
 /// The batch tracker's parameter rows along a *bent* parameter path (`p(t)` quadratic in `t`:

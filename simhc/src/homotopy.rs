@@ -165,12 +165,11 @@ macro_rules! phantom_impls {
     };
 }
 
-phantom_impls!([P, S: Scalar, const NP: usize], StraightLine<P, S, NP>, "StraightLine", [p0, p1, gamma]);
 phantom_impls!(
     [G, F, S: Scalar, const NPG: usize, const NPF: usize],
     GammaTrick<G, F, S, NPG, NPF>,
     "GammaTrick",
-    [pg, pf, gamma]
+    [p0, p1, gamma]
 );
 phantom_impls!(
     [P, S: Scalar, const NP: usize],
@@ -262,92 +261,71 @@ where
 }
 
 /// The paper's straight-line homotopy within one problem family,
-/// `H(x, t) = gamma (1-t) F(x; p0) + t F(x; p1)`, `gamma = 1` unless set.
+/// `H(x, t) = gamma (1-t) F(x; p0) + t F(x; p1)`, `gamma = 1` unless set: the [`GammaTrick`]
+/// from a system to itself (one implementation serves both).
 ///
 /// `J_x = gamma (1-t) J(x; p0) + t J(x; p1)` and `dH/dt = F(x; p1) - gamma F(x; p0)`; every
 /// evaluation costs two residual/Jacobian evaluations of the problem. For overdetermined
 /// systems this homotopy is inconsistent for `0 < t < 1` (see the module docs).
-pub struct StraightLine<P, S: Scalar, const NP: usize> {
-    /// Start parameters (`t = 0`).
-    pub p0: SVector<S, NP>,
-    /// Target parameters (`t = 1`).
-    pub p1: SVector<S, NP>,
-    /// Factor of the start system; a random unit complex number for the gamma trick.
-    pub gamma: S,
-    problem: PhantomData<fn() -> P>,
-}
+pub type StraightLine<P, S, const NP: usize> = GammaTrick<P, P, S, NP, NP>;
 
 impl<P, S: Scalar, const NP: usize> StraightLine<P, S, NP> {
     /// The straight line from `F(.; p0)` to `F(.; p1)` with `gamma = 1`.
     pub fn new(p0: SVector<S, NP>, p1: SVector<S, NP>) -> Self {
-        Self { p0, p1, gamma: S::one(), problem: PhantomData }
+        Self::between(S::one(), p0, p1)
     }
 
     /// Same with a `gamma` factor on the start system.
     pub fn with_gamma(p0: SVector<S, NP>, p1: SVector<S, NP>, gamma: S) -> Self {
-        Self { p0, p1, gamma, problem: PhantomData }
+        Self::between(gamma, p0, p1)
     }
 }
 
-impl<P, S, const NX: usize, const NF: usize, const NP: usize> Homotopy<S, NX, NF>
-    for StraightLine<P, S, NP>
-where
-    P: Problem<NX, NF, NP>,
-    S: Scalar,
-{
-    #[inline]
-    fn evaluate(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        h: &mut SVector<S, NF>,
-        jx: &mut SMatrix<S, NF, NX>,
-    ) {
-        blend_evaluate::<P, P, S, NX, NF, _, _>(&self.p0, &self.p1, self.gamma, x, t, h, jx);
-    }
-
-    #[inline]
-    fn dt(&self, x: &SVector<S, NX>, _t: f64, dh: &mut SVector<S, NF>) {
-        blend_dt::<P, P, S, NX, NF, _, _>(&self.p0, &self.p1, self.gamma, x, dh);
-    }
-
-    #[inline]
-    fn residual(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>) {
-        blend_residual::<P, P, S, NX, NF, _, _>(&self.p0, &self.p1, self.gamma, x, t, h);
-    }
-
-    #[inline]
-    fn jacobian_dt(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        jx: &mut SMatrix<S, NF, NX>,
-        dh: &mut SVector<S, NF>,
-    ) {
-        blend_jacobian_dt::<P, P, S, NX, NF, _, _>(&self.p0, &self.p1, self.gamma, x, t, jx, dh);
-    }
-}
-
-/// The gamma trick between two different systems,
-/// `H(x, t) = gamma (1-t) G(x; pg) + t F(x; pf)`.
+/// The gamma trick between two systems, `H(x, t) = gamma (1-t) G(x; p0) + t F(x; p1)`.
 ///
 /// `G` is typically a total-degree start system (`x_i^{d_i} - 1`, solutions known) and `F` the
 /// target; with `gamma` from [`random_gamma`] no path meets a singularity for `t < 1` with
-/// probability one. Track in `Complex<f64>`.
+/// probability one. Track in `Complex<f64>`. With `G = F` it is the [`StraightLine`].
 pub struct GammaTrick<G, F, S: Scalar, const NPG: usize, const NPF: usize> {
-    /// Parameters of the start system `G`.
-    pub pg: SVector<S, NPG>,
-    /// Parameters of the target system `F`.
-    pub pf: SVector<S, NPF>,
+    /// Parameters of the start system `G` (`t = 0`).
+    pub p0: SVector<S, NPG>,
+    /// Parameters of the target system `F` (`t = 1`).
+    pub p1: SVector<S, NPF>,
     /// Factor of the start system.
     pub gamma: S,
     systems: PhantomData<fn() -> (G, F)>,
 }
 
 impl<G, F, S: Scalar, const NPG: usize, const NPF: usize> GammaTrick<G, F, S, NPG, NPF> {
-    /// `gamma (1-t) G(x; pg) + t F(x; pf)`.
-    pub fn new(gamma: S, pg: SVector<S, NPG>, pf: SVector<S, NPF>) -> Self {
-        Self { pg, pf, gamma, systems: PhantomData }
+    /// `gamma (1-t) G(x; p0) + t F(x; p1)`.
+    pub fn between(gamma: S, p0: SVector<S, NPG>, p1: SVector<S, NPF>) -> Self {
+        Self { p0, p1, gamma, systems: PhantomData }
+    }
+
+    /// `G` and `F` at `x`: residuals, and Jacobians when asked for.
+    #[inline]
+    fn both<const NX: usize, const NF: usize>(
+        &self,
+        x: &SVector<S, NX>,
+        jacobians: Option<(&mut SMatrix<S, NF, NX>, &mut SMatrix<S, NF, NX>)>,
+    ) -> (SVector<S, NF>, SVector<S, NF>)
+    where
+        G: Problem<NX, NF, NPG>,
+        F: Problem<NX, NF, NPF>,
+    {
+        let mut f0 = SVector::<S, NF>::zeros();
+        let mut f1 = SVector::<S, NF>::zeros();
+        match jacobians {
+            Some((j0, j1)) => {
+                G::residual_jacobian(x, &self.p0, &mut f0, j0);
+                F::residual_jacobian(x, &self.p1, &mut f1, j1);
+            }
+            None => {
+                G::residual(x, &self.p0, &mut f0);
+                F::residual(x, &self.p1, &mut f1);
+            }
+        }
+        (f0, f1)
     }
 }
 
@@ -366,17 +344,25 @@ where
         h: &mut SVector<S, NF>,
         jx: &mut SMatrix<S, NF, NX>,
     ) {
-        blend_evaluate::<G, F, S, NX, NF, _, _>(&self.pg, &self.pf, self.gamma, x, t, h, jx);
+        let mut j0 = SMatrix::<S, NF, NX>::zeros();
+        let mut j1 = SMatrix::<S, NF, NX>::zeros();
+        let (f0, f1) = self.both(x, Some((&mut j0, &mut j1)));
+        let a = self.gamma * S::from_real(1.0 - t);
+        let b = S::from_real(t);
+        lincomb(h, a, &f0, b, &f1);
+        lincomb(jx, a, &j0, b, &j1);
     }
 
     #[inline]
     fn dt(&self, x: &SVector<S, NX>, _t: f64, dh: &mut SVector<S, NF>) {
-        blend_dt::<G, F, S, NX, NF, _, _>(&self.pg, &self.pf, self.gamma, x, dh);
+        let (f0, f1) = self.both::<NX, NF>(x, None);
+        lincomb(dh, -self.gamma, &f0, S::one(), &f1);
     }
 
     #[inline]
     fn residual(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>) {
-        blend_residual::<G, F, S, NX, NF, _, _>(&self.pg, &self.pf, self.gamma, x, t, h);
+        let (f0, f1) = self.both::<NX, NF>(x, None);
+        lincomb(h, self.gamma * S::from_real(1.0 - t), &f0, S::from_real(t), &f1);
     }
 
     #[inline]
@@ -387,99 +373,12 @@ where
         jx: &mut SMatrix<S, NF, NX>,
         dh: &mut SVector<S, NF>,
     ) {
-        blend_jacobian_dt::<G, F, S, NX, NF, _, _>(&self.pg, &self.pf, self.gamma, x, t, jx, dh);
+        let mut j0 = SMatrix::<S, NF, NX>::zeros();
+        let mut j1 = SMatrix::<S, NF, NX>::zeros();
+        let (f0, f1) = self.both(x, Some((&mut j0, &mut j1)));
+        lincomb(jx, self.gamma * S::from_real(1.0 - t), &j0, S::from_real(t), &j1);
+        lincomb(dh, -self.gamma, &f0, S::one(), &f1);
     }
-}
-
-// `gamma (1-t) G(x; pg) + t F(x; pf)`: shared by [`StraightLine`] (`G = F`) and [`GammaTrick`].
-
-#[inline]
-fn blend_evaluate<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>(
-    pg: &SVector<S, NPG>,
-    pf: &SVector<S, NPF>,
-    gamma: S,
-    x: &SVector<S, NX>,
-    t: f64,
-    h: &mut SVector<S, NF>,
-    jx: &mut SMatrix<S, NF, NX>,
-) where
-    G: Problem<NX, NF, NPG>,
-    F: Problem<NX, NF, NPF>,
-    S: Scalar,
-{
-    let mut f0 = SVector::<S, NF>::zeros();
-    let mut j0 = SMatrix::<S, NF, NX>::zeros();
-    let mut f1 = SVector::<S, NF>::zeros();
-    let mut j1 = SMatrix::<S, NF, NX>::zeros();
-    G::residual_jacobian(x, pg, &mut f0, &mut j0);
-    F::residual_jacobian(x, pf, &mut f1, &mut j1);
-    let a = gamma * S::from_real(1.0 - t);
-    let b = S::from_real(t);
-    lincomb(h, a, &f0, b, &f1);
-    lincomb(jx, a, &j0, b, &j1);
-}
-
-#[inline]
-fn blend_dt<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>(
-    pg: &SVector<S, NPG>,
-    pf: &SVector<S, NPF>,
-    gamma: S,
-    x: &SVector<S, NX>,
-    dh: &mut SVector<S, NF>,
-) where
-    G: Problem<NX, NF, NPG>,
-    F: Problem<NX, NF, NPF>,
-    S: Scalar,
-{
-    let mut f0 = SVector::<S, NF>::zeros();
-    let mut f1 = SVector::<S, NF>::zeros();
-    G::residual(x, pg, &mut f0);
-    F::residual(x, pf, &mut f1);
-    lincomb(dh, -gamma, &f0, S::one(), &f1);
-}
-
-#[inline]
-fn blend_residual<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>(
-    pg: &SVector<S, NPG>,
-    pf: &SVector<S, NPF>,
-    gamma: S,
-    x: &SVector<S, NX>,
-    t: f64,
-    h: &mut SVector<S, NF>,
-) where
-    G: Problem<NX, NF, NPG>,
-    F: Problem<NX, NF, NPF>,
-    S: Scalar,
-{
-    let mut f0 = SVector::<S, NF>::zeros();
-    let mut f1 = SVector::<S, NF>::zeros();
-    G::residual(x, pg, &mut f0);
-    F::residual(x, pf, &mut f1);
-    lincomb(h, gamma * S::from_real(1.0 - t), &f0, S::from_real(t), &f1);
-}
-
-#[inline]
-fn blend_jacobian_dt<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>(
-    pg: &SVector<S, NPG>,
-    pf: &SVector<S, NPF>,
-    gamma: S,
-    x: &SVector<S, NX>,
-    t: f64,
-    jx: &mut SMatrix<S, NF, NX>,
-    dh: &mut SVector<S, NF>,
-) where
-    G: Problem<NX, NF, NPG>,
-    F: Problem<NX, NF, NPF>,
-    S: Scalar,
-{
-    let mut f0 = SVector::<S, NF>::zeros();
-    let mut j0 = SMatrix::<S, NF, NX>::zeros();
-    let mut f1 = SVector::<S, NF>::zeros();
-    let mut j1 = SMatrix::<S, NF, NX>::zeros();
-    G::residual_jacobian(x, pg, &mut f0, &mut j0);
-    F::residual_jacobian(x, pf, &mut f1, &mut j1);
-    lincomb(jx, gamma * S::from_real(1.0 - t), &j0, S::from_real(t), &j1);
-    lincomb(dh, -gamma, &f0, S::one(), &f1);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -207,35 +207,124 @@ pub trait Kernel {
     fn run(self);
 }
 
+/// A kernel whose code depends on the instruction set it is compiled for (tile widths, fused
+/// arithmetic): [`Isa::run_for`] tells it which one (a constant in each compiled variant, so the
+/// choice folds away when `run` is `#[inline(always)]`).
+pub trait IsaKernel {
+    /// Evaluates, compiled for `isa`.
+    fn run(self, isa: Isa);
+}
+
+/// A [`Kernel`] as an [`IsaKernel`] that does not look at the instruction set.
+struct Same<K>(K);
+
+impl<K: Kernel> IsaKernel for Same<K> {
+    #[inline(always)]
+    fn run(self, _isa: Isa) {
+        self.0.run()
+    }
+}
+
+/// An instruction set that kernels are compiled for, chosen at run time: the one run-time
+/// dispatcher of the crate (row kernels through [`dispatch`], the batch tracker's operation,
+/// the regressor's forward pass). The detection is cached by the standard library; callers
+/// dispatch once per kernel call, never inside its loops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Isa {
+    /// AVX-512 (F and VL), with AVX2 and FMA.
+    Avx512,
+    /// AVX2 with FMA.
+    Avx2,
+    /// The baseline instruction set (any CPU).
+    Baseline,
+}
+
+impl Isa {
+    /// Every instruction set, widest first.
+    pub const ALL: [Isa; 3] = [Isa::Avx512, Isa::Avx2, Isa::Baseline];
+
+    /// The widest instruction set this CPU runs.
+    pub fn detect() -> Self {
+        Self::ALL.into_iter().find(|isa| isa.available()).unwrap_or(Isa::Baseline)
+    }
+
+    /// Whether this CPU runs it (checked at run time, cached by the standard library).
+    #[inline]
+    pub fn available(self) -> bool {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                std::is_x86_feature_detected!("avx512f")
+                    && std::is_x86_feature_detected!("avx512vl")
+                    && Isa::Avx2.available()
+            }
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma"),
+            Isa::Baseline => true,
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// Runs `kernel` compiled for this instruction set, or for the baseline when the CPU does
+    /// not run it.
+    #[inline(always)]
+    pub fn run<K: Kernel>(self, kernel: K) {
+        self.run_for(Same(kernel))
+    }
+
+    /// Runs `kernel` compiled for this instruction set (told which), or for the baseline when
+    /// the CPU does not run it.
+    #[inline(always)]
+    pub fn run_for<K: IsaKernel>(self, kernel: K) {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 if self.available() => {
+                // SAFETY: `run_avx512` requires AVX-512F/VL, AVX2 and FMA, just checked.
+                #[allow(unsafe_code)]
+                unsafe {
+                    run_avx512(kernel)
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 if self.available() => {
+                // SAFETY: `run_avx2` requires AVX2 and FMA, just checked.
+                #[allow(unsafe_code)]
+                unsafe {
+                    run_avx2(kernel)
+                }
+            }
+            _ => kernel.run(Isa::Baseline),
+        }
+    }
+}
+
 /// Runs `kernel` with AVX2 and FMA code when the CPU has both (checked at run time, cached by
-/// the standard library), else with the baseline instruction set. (AVX-512 measured slower
-/// on this Xeon for the GRPS7 kernels: 0.68 us with 4 lanes and 1.0 us with 8, against 0.45 us
-/// for AVX2 with 4 lanes; 8 lanes on AVX2 0.65 us.) Both variants compute the
+/// the standard library), else with the baseline instruction set: [`Isa::Avx2`]`.run`. (AVX-512
+/// measured slower on this Xeon for the GRPS7 kernels: 0.68 us with 4 lanes and 1.0 us with 8,
+/// against 0.45 us for AVX2 with 4 lanes; 8 lanes on AVX2 0.65 us.) Both variants compute the
 /// same operations in the same order (Rust does not contract `a * b + c` into an FMA), so the
 /// results are bit-identical.
 #[inline(always)]
 pub fn dispatch<K: Kernel>(kernel: K) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-            // SAFETY: `run_avx2` only requires AVX2 and FMA, just detected on this CPU.
-            #[allow(unsafe_code)]
-            unsafe {
-                run_avx2(kernel)
-            };
-            return;
-        }
-    }
-    kernel.run()
+    Isa::Avx2.run(kernel)
 }
 
-/// [`Kernel::run`] compiled for AVX2 + FMA (the inlined kernel's lane loops become 256-bit
+/// [`IsaKernel::run`] compiled for AVX2 + FMA (the inlined kernel's lane loops become 256-bit
 /// vector instructions).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 #[allow(unsafe_code)]
-unsafe fn run_avx2<K: Kernel>(kernel: K) {
-    kernel.run()
+unsafe fn run_avx2<K: IsaKernel>(kernel: K) {
+    kernel.run(Isa::Avx2)
+}
+
+/// [`IsaKernel::run`] compiled for AVX-512 (8-lane loops become 512-bit instructions).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
+#[allow(unsafe_code)]
+unsafe fn run_avx512<K: IsaKernel>(kernel: K) {
+    kernel.run(Isa::Avx512)
 }
 
 /// The unknowns, each broadcast to every lane.

@@ -50,6 +50,7 @@
 //! net.forward(&rows, &mut out)?;                   // unit quaternion [w, x, y, z], sign free
 //! ```
 
+use crate::lanes::{Isa, IsaKernel};
 use thiserror::Error;
 
 /// Largest layer width (and input width) the forward pass supports: activations live in
@@ -390,26 +391,8 @@ impl FoldedNetwork {
         if rows.iter().any(|v| !v.is_finite()) {
             return Err(RegressorError::NonFinite);
         }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: `forward_avx2_fma` only differs from the portable path in being compiled
-            // for AVX2 and FMA, which were detected on this CPU just above.
-            #[allow(unsafe_code)]
-            unsafe {
-                self.forward_avx2_fma(rows, out)
-            };
-            return Ok(());
-        }
-        self.forward_impl::<8, false>(rows, out);
+        Isa::Avx2.run_for(Forward { net: self, rows, out });
         Ok(())
-    }
-
-    /// [`Self::forward_impl`] compiled for AVX2 + FMA (16-wide tiles, fused multiply-add).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
-    fn forward_avx2_fma(&self, rows: &[f32], out: &mut [f64]) {
-        self.forward_impl::<16, true>(rows, out);
     }
 
     /// The forward pass on validated input (`rows` a non-empty whole number of rows, `out` of
@@ -497,6 +480,24 @@ impl<'a> Reader<'a> {
         Ok(b.chunks_exact(4)
             .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
             .collect())
+    }
+}
+
+/// The forward pass as a kernel of the crate's run-time dispatcher ([`Isa::run_for`]): 16-wide
+/// tiles with fused multiply-adds when compiled for AVX2 + FMA, 8-wide unfused otherwise.
+struct Forward<'a> {
+    net: &'a FoldedNetwork,
+    rows: &'a [f32],
+    out: &'a mut [f64],
+}
+
+impl IsaKernel for Forward<'_> {
+    #[inline(always)]
+    fn run(self, isa: Isa) {
+        match isa {
+            Isa::Baseline => self.net.forward_impl::<8, false>(self.rows, self.out),
+            Isa::Avx2 | Isa::Avx512 => self.net.forward_impl::<16, true>(self.rows, self.out),
+        }
     }
 }
 

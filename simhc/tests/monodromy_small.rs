@@ -3,7 +3,6 @@
 //! (4 solutions, 2 modulo `(x, y) -> (-x, -y)`) with a parameter-free equation.
 
 use nalgebra::{SMatrix, SVector, Vector2};
-use num_complex::Complex;
 use simhc::all_roots::{
     move_start_system, solve_all, suspicious_paths, AllRootsOptions, StartSystem,
 };
@@ -11,10 +10,9 @@ use simhc::monodromy::{
     monodromy_solve, relative_distance, seed_pair, MonodromyOptions, SignFlip, SolutionSet,
     StopReason,
 };
+use simhc::scalar::C;
 use simhc::tracker::TrackError;
 use simhc::{ParamDerivative, Problem, ProblemInfo, Scalar};
-
-type C = Complex<f64>;
 
 /// The six monomials `[x^2, xy, y^2, x, y, 1]` and their derivatives.
 fn conic_monomials<S: Scalar>(x: &SVector<S, 2>) -> [S; 6] {

@@ -4,15 +4,13 @@
 mod tracker_support;
 
 use nalgebra::{SMatrix, SVector, Vector1};
-use num_complex::Complex;
 use simhc::homotopy::{
     random_gamma, real_if_close, to_complex, GammaTrick, Homotopy, ParameterHomotopy,
     StraightLine,
 };
+use simhc::scalar::C;
 use simhc::tracker::{track, TrackError, TrackerOptions};
 use tracker_support::*;
-
-type C = Complex<f64>;
 
 /// Seeded random monic degree-6 polynomial `x^6 + c5 x^5 + ... + c0` with complex coefficients.
 fn random_monic(seed: u64) -> SVector<C, 7> {
@@ -88,7 +86,7 @@ fn all_six_roots_by_gamma_trick_from_total_degree_start() {
         start[6] = C::new(1.0, 0.0);
         let same_family = StraightLine::<Poly6, C, 7>::with_gamma(start, c, gamma);
         // Two systems: the start system as its own problem type.
-        let two_systems = GammaTrick::<Start6, Poly6, C, 0, 7>::new(gamma, SVector::zeros(), c);
+        let two_systems = GammaTrick::<Start6, Poly6, C, 0, 7>::between(gamma, SVector::zeros(), c);
         for (name, opts) in [
             ("adaptive", TrackerOptions::default()),
             ("paper dt=0.02", TrackerOptions { final_newton_iterations: 3, ..TrackerOptions::paper(0.02) }),

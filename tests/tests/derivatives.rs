@@ -3,10 +3,10 @@
 //! against each other.
 
 use nalgebra::{SMatrix, SVector};
-use num_complex::Complex;
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use simhc::scalar::C;
 use simhc::{CoefficientForm, ParamDerivative, Scalar};
 use simhc_problems::{grps, upnp};
 
@@ -228,7 +228,6 @@ where
     P: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP>,
 {
     use simhc::lanes::{Lanes, C64x4, LANES};
-    type C = Complex<f64>;
     let (Some(epr), Some((rows, _)), Some(layout)) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES) else {
         return false;
     };
@@ -290,7 +289,7 @@ where
     P: ParamDerivative<NX, NF, NP>,
 {
     check::<P, f64, NX, NF, NP>(seed, false);
-    check::<P, Complex<f64>, NX, NF, NP>(seed, true);
+    check::<P, C, NX, NF, NP>(seed, true);
 }
 
 fn check_coefficients_both<P, const NX: usize, const NF: usize, const NP: usize, const NC: usize>(seed: u64)
@@ -298,7 +297,7 @@ where
     P: CoefficientForm<NX, NF, NP, NC>,
 {
     check_coefficients::<P, f64, NX, NF, NP, NC>(seed, false);
-    check_coefficients::<P, Complex<f64>, NX, NF, NP, NC>(seed, true);
+    check_coefficients::<P, C, NX, NF, NP, NC>(seed, true);
 }
 
 proptest! {

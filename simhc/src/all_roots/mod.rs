@@ -329,8 +329,11 @@ where
                         start.symmetry.as_ref(),
                         options.duplicate_tolerance,
                     );
+                    // The jobs are valid by construction; a declined call falls back to one path
+                    // at a time.
                     track_batch_queue(isa, &system, &h, &start.solutions, &settings, &mut queue)
-                        .then(|| queue.into_results())
+                        .and_then(|()| queue.into_results())
+                        .ok()
                 };
                 if options.parallel {
                     let parts = rayon::current_num_threads().max(1);

@@ -11,13 +11,16 @@
 //! found, nor on how the paths were split over threads.
 
 use crate::monodromy::{relative_distance, SignFlip, C};
-use crate::tracker::batch::{InOrder, PathJob, PathQueue};
+use crate::tracker::batch::{BatchError, InOrder, PathJob, PathQueue};
 use crate::tracker::{TrackError, TrackResult};
 use nalgebra::SVector;
 use std::collections::VecDeque;
 
 /// One path's outcome.
 pub(super) type PathResult<const N: usize> = Result<TrackResult<C, N>, TrackError>;
+
+/// The main-pass results in the order of their indices, and the re-tracks (start index, result).
+pub(super) type Passes<const N: usize> = (Vec<PathResult<N>>, Vec<(usize, PathResult<N>)>);
 
 /// Something with an end point: a [`crate::tracker::TrackResult`] or a bare point.
 pub trait EndPoint<const N: usize> {
@@ -131,9 +134,10 @@ impl<'a, const N: usize> RepairQueue<'a, N> {
         }
     }
 
-    /// The main-pass results in the order of `indices`, and the first-round re-tracks.
-    pub(super) fn into_results(self) -> (Vec<PathResult<N>>, Vec<(usize, PathResult<N>)>) {
-        (self.main.into_results(), self.retracked)
+    /// The main-pass results in the order of `indices`, and the first-round re-tracks (or the
+    /// error of a refused job).
+    pub(super) fn into_results(self) -> Result<Passes<N>, BatchError> {
+        Ok((self.main.into_results()?, self.retracked))
     }
 
     fn flag(&mut self, k: usize) {
@@ -188,6 +192,10 @@ impl<const N: usize> PathQueue<N> for RepairQueue<'_, N> {
         } else {
             self.retracked.push((job.start, result));
         }
+    }
+
+    fn refused(&mut self, job: PathJob, error: BatchError) {
+        self.main.refused(job, error);
     }
 }
 
@@ -256,7 +264,7 @@ mod tests {
             assert_eq!(flagged, expected, "case {case}");
             flagged_total += flagged.len();
             paths_total += results.len();
-            let (main, retracked) = queue.into_results();
+            let (main, retracked) = queue.into_results().unwrap();
             assert!(retracked.is_empty());
             assert_eq!(main, results);
         }
@@ -296,6 +304,6 @@ mod tests {
             queue.finished(job, results[job.id]);
         }
         assert_eq!(starts, indices);
-        assert_eq!(queue.into_results().0, results);
+        assert_eq!(queue.into_results().unwrap().0, results);
     }
 }

@@ -3,7 +3,7 @@
 use super::linalg::LinearSolver;
 use super::options::NewtonOptions;
 use super::predictor::all_finite;
-use super::{TrackError, TrackStats, Trouble};
+use super::result::{TrackError, Trouble};
 use crate::homotopy::Homotopy;
 use crate::Scalar;
 use nalgebra::{SMatrix, SVector};
@@ -120,47 +120,89 @@ pub(crate) struct CorrectorReport {
     pub relative_correction: f64,
 }
 
-/// Newton (`NF = NX`) or Gauss-Newton (`NF > NX`) on `H(., t) = 0` from `x`, with a fresh
-/// Jacobian in every iteration (quadratic convergence, and the last factorization, taken
-/// within the tolerance of the result, then serves the next path tangent).
+/// One corrector run as a state machine: fed one Newton update at a time (the drivers compute
+/// them, see [`super::path`]), it applies each and decides when to stop.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Corrector<S: Scalar, const NX: usize> {
+    /// The current iterate.
+    pub x: SVector<S, NX>,
+    pub settings: CorrectorSettings,
+    /// The run so far; final once [`Corrector::feed`] returned `true`.
+    pub report: CorrectorReport,
+    /// `|dx|_w` of the previous update.
+    prev: f64,
+}
+
+impl<S: Scalar, const NX: usize> Corrector<S, NX> {
+    /// A run from `x` (no update yet).
+    #[inline]
+    pub(crate) fn new(x: SVector<S, NX>, settings: CorrectorSettings) -> Self {
+        Self { x, settings, report: CorrectorReport::new(), prev: f64::NAN }
+    }
+
+    /// Applies the next update `dx` (or records why there is none) in the weighted norm `w`;
+    /// `square`: Newton, not Gauss-Newton. `true` when the run has stopped: converged, failed, or
+    /// out of iterations (`report.outcome` says which).
+    #[inline]
+    pub(crate) fn feed(&mut self, dx: Result<SVector<S, NX>, Trouble>, w: &SVector<f64, NX>, square: bool) -> bool {
+        self.report.iterations += 1;
+        let stop = match dx {
+            Err(trouble) => {
+                self.report.outcome = Err(trouble);
+                true
+            }
+            Ok(dx) => apply_update(&mut self.x, &dx, w, &self.settings, &mut self.report, &mut self.prev, square),
+        };
+        // Out of iterations: `outcome` is still `NotConverged`.
+        stop || self.report.iterations >= self.settings.max_iterations
+    }
+}
+
+/// Newton (`NF = NX`) or Gauss-Newton (`NF > NX`) on `H(., t) = 0` from `x` (a [`Corrector`]
+/// driven to its end), with a fresh Jacobian in every iteration: [`newton`]'s loop.
 ///
 /// Stops as soon as the estimated remaining error is below the tolerance: after update `k >= 1`
 /// that is `theta / (1 - theta) |dx_k|` with `theta = |dx_k| / |dx_(k-1)|` (the standard bound for
 /// a contraction), after the first update `omega |dx_0|^2 / 2` when `omega` is known from the
 /// previous step (Newton's quadratic convergence) — which often saves the second evaluation.
 #[inline]
-pub(crate) fn correct<S, H, const NX: usize, const NF: usize>(
+fn correct<S, H, const NX: usize, const NF: usize>(
     h: &H,
     x: &mut SVector<S, NX>,
     t: f64,
     w: &SVector<f64, NX>,
-    solver: &mut LinearSolver<S, NX, NF>,
     s: &CorrectorSettings,
-    stats: &mut TrackStats,
 ) -> CorrectorReport
+where
+    S: Scalar,
+    H: Homotopy<S, NX, NF>,
+{
+    let mut solver = LinearSolver::<S, NX, NF>::new();
+    let mut corrector = Corrector::new(*x, *s);
+    if s.max_iterations > 0 {
+        while !corrector.feed(update(h, &corrector.x, t, &mut solver), w, NF == NX) {}
+    }
+    *x = corrector.x;
+    corrector.report
+}
+
+/// The Newton (Gauss-Newton) update `J_x^-1 H` at `(x, t)`; the factorization stays in `solver`.
+#[inline]
+pub(crate) fn update<S, H, const NX: usize, const NF: usize>(
+    h: &H,
+    x: &SVector<S, NX>,
+    t: f64,
+    solver: &mut LinearSolver<S, NX, NF>,
+) -> Result<SVector<S, NX>, Trouble>
 where
     S: Scalar,
     H: Homotopy<S, NX, NF>,
 {
     let mut r = SVector::<S, NF>::zeros();
     let mut j = SMatrix::<S, NF, NX>::zeros();
-    let mut report = CorrectorReport::new();
-    let mut prev = f64::NAN;
-    for k in 0..s.max_iterations {
-        h.evaluate(x, t, &mut r, &mut j);
-        stats.newton_iterations += 1;
-        stats.factorizations += 1;
-        report.iterations = k + 1;
-        if let Err(e) = solver.factor(&j) {
-            report.outcome = Err(e.into());
-            return report;
-        }
-        let dx = solver.solve(&r);
-        if apply_update(x, &dx, w, s, &mut report, &mut prev, NF == NX) {
-            return report;
-        }
-    }
-    report
+    h.evaluate(x, t, &mut r, &mut j);
+    solver.factor(&j)?;
+    Ok(solver.solve(&r))
 }
 
 impl CorrectorReport {
@@ -184,10 +226,9 @@ impl CorrectorReport {
 /// the corrector stops (`report.outcome` says why: converged, contraction, non-finite,
 /// diverged), `false` to go on (the caller stops after `max_iterations` with
 /// `NotConverged`). `prev` carries `|dx|_w` of the previous update; `square`: Newton (not
-/// Gauss-Newton). Shared by [`correct`] and
-/// the batch tracker (`super::batch`).
+/// Gauss-Newton). [`Corrector::feed`]'s step.
 #[inline]
-pub(crate) fn apply_update<S: Scalar, const NX: usize>(
+fn apply_update<S: Scalar, const NX: usize>(
     x: &mut SVector<S, NX>,
     dx: &SVector<S, NX>,
     w: &SVector<f64, NX>,
@@ -307,10 +348,8 @@ where
     }
     let mut x = *x0;
     let w = norm_weights(&x);
-    let mut solver = LinearSolver::<S, NX, NF>::new();
-    let mut stats = TrackStats::default();
     let settings = CorrectorSettings::refine(options.max_iterations, options.tolerance, options.max_norm);
-    let report = correct(h, &mut x, t, &w, &mut solver, &settings, &mut stats);
+    let report = correct::<S, H, NX, NF>(h, &mut x, t, &w, &settings);
     let converged = match report.outcome {
         Ok(()) => true,
         Err(Trouble::NotConverged) | Err(Trouble::Contraction) => false,

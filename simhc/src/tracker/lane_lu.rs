@@ -8,7 +8,7 @@
 //! about a quarter of the all-roots time. The scalar (column-oriented) LU of the `linalg` module
 //! stays in use for the sizes where this one does not pay ([`pays`]).
 
-use super::linalg::FactorError;
+use super::factor::FactorError;
 use crate::lanes::{dispatch, Kernel, Lanes, LANES};
 use crate::Scalar;
 use nalgebra::{SMatrix, SVector};

@@ -14,18 +14,10 @@
 //! `NX * eps * max diag(J^H J)`, i.e. `kappa(J) >~ 1e7`. Square-up
 //! ([`crate::homotopy::SquaredUp`]) avoids the squaring when that matters.
 
+use super::factor::FactorError;
 use super::lane_lu::{self, LaneLu};
 use crate::Scalar;
 use nalgebra::{SMatrix, SVector};
-
-/// The factorization met a (numerically) singular matrix or non-finite entries.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum FactorError {
-    /// Pivot below the relative threshold.
-    Singular,
-    /// NaN or infinity in the matrix.
-    NonFinite,
-}
 
 /// Solver for `J dx = b` (square) or `min |J dx - b|` (`NF > NX`), factorized once, solved many
 /// times.

@@ -1,22 +1,12 @@
-//! Predictors on the path ODE `J_x dx/dt = -dH/dt`: explicit Runge-Kutta steps (one
-//! factorization per extra stage) and Hermite extrapolation through accepted points (none).
+//! Predictor pieces on the path ODE `J_x dx/dt = -dH/dt`: the tangent (one factorization, or
+//! the corrector's last), and Hermite extrapolation through accepted points (none). The
+//! Runge-Kutta stages are steps of the path state machine (`super::path`).
 
-use super::linalg::{FactorError, LinearSolver};
-use super::options::Predictor;
-use super::{Trouble, TrackStats};
+use super::linalg::LinearSolver;
+use super::result::Trouble;
 use crate::homotopy::Homotopy;
 use crate::Scalar;
 use nalgebra::{SMatrix, SVector};
-
-impl From<FactorError> for Trouble {
-    #[inline]
-    fn from(e: FactorError) -> Self {
-        match e {
-            FactorError::Singular => Trouble::Singular,
-            FactorError::NonFinite => Trouble::NonFinite,
-        }
-    }
-}
 
 /// Whether every entry is finite.
 #[inline]
@@ -32,7 +22,6 @@ pub(crate) fn tangent<S, H, const NX: usize, const NF: usize>(
     x: &SVector<S, NX>,
     t: f64,
     solver: &mut LinearSolver<S, NX, NF>,
-    stats: &mut TrackStats,
 ) -> Result<SVector<S, NX>, Trouble>
 where
     S: Scalar,
@@ -41,7 +30,6 @@ where
     let mut j = SMatrix::<S, NF, NX>::zeros();
     let mut dh = SVector::<S, NF>::zeros();
     h.jacobian_dt(x, t, &mut j, &mut dh);
-    stats.factorizations += 1;
     solver.factor(&j)?;
     tangent_from_factor(h, x, t, solver)
 }
@@ -72,7 +60,7 @@ where
 
 /// `x + c v` without temporaries.
 #[inline]
-fn axpy<S: Scalar, const N: usize>(x: &SVector<S, N>, c: f64, v: &SVector<S, N>) -> SVector<S, N> {
+pub(crate) fn axpy<S: Scalar, const N: usize>(x: &SVector<S, N>, c: f64, v: &SVector<S, N>) -> SVector<S, N> {
     let c = S::from_real(c);
     let mut out = *x;
     for (o, &vi) in out.iter_mut().zip(v.iter()) {
@@ -94,6 +82,12 @@ pub(crate) struct History<S: Scalar, const NX: usize> {
 impl<S: Scalar, const NX: usize> History<S, NX> {
     pub(crate) fn new() -> Self {
         Self { t: [0.0; 2], x: [SVector::zeros(); 2], v: [SVector::zeros(); 2], len: 0 }
+    }
+
+    /// How many points there are.
+    #[inline]
+    pub(crate) fn len(&self) -> usize {
+        self.len
     }
 
     /// Forgets every point (start, or a drag step that left the path).
@@ -122,7 +116,7 @@ impl<S: Scalar, const NX: usize> History<S, NX> {
 /// each with its value and tangent (confluent divided differences, Newton form, times relative
 /// to `t`): the polynomial of degree `2m - 1`.
 #[inline]
-fn hermite<S: Scalar, const NX: usize>(
+pub(crate) fn hermite<S: Scalar, const NX: usize>(
     history: &History<S, NX>,
     m: usize,
     x: &SVector<S, NX>,
@@ -171,63 +165,4 @@ fn hermite<S: Scalar, const NX: usize>(
         }
     }
     p
-}
-
-/// The predicted point at `t + dt` from `(x, t)` with tangent `k1` at `(x, t)` (and, for
-/// [`Predictor::Hermite`], the accepted points before it).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-pub(crate) fn predict<S, H, const NX: usize, const NF: usize>(
-    kind: Predictor,
-    h: &H,
-    x: &SVector<S, NX>,
-    t: f64,
-    dt: f64,
-    k1: &SVector<S, NX>,
-    history: &History<S, NX>,
-    solver: &mut LinearSolver<S, NX, NF>,
-    stats: &mut TrackStats,
-) -> Result<SVector<S, NX>, Trouble>
-where
-    S: Scalar,
-    H: Homotopy<S, NX, NF>,
-{
-    if let Predictor::Hermite { points } = kind {
-        let m = (points.clamp(2, 3) as usize).min(history.len + 1);
-        if m >= 2 {
-            let xp = hermite(history, m, x, t, k1, dt);
-            return if all_finite(&xp) { Ok(xp) } else { Err(Trouble::NonFinite) };
-        }
-    }
-    let xp = match kind {
-        Predictor::Euler => axpy(x, dt, k1),
-        // Hermite without enough history starts with Heun.
-        Predictor::Heun | Predictor::Hermite { .. } => {
-            let k2 = tangent(h, &axpy(x, dt, k1), t + dt, solver, stats)?;
-            let c = S::from_real(0.5 * dt);
-            let mut out = *x;
-            for i in 0..NX {
-                out[i] += c * (k1[i] + k2[i]);
-            }
-            out
-        }
-        Predictor::Rk4 => {
-            let half = 0.5 * dt;
-            let k2 = tangent(h, &axpy(x, half, k1), t + half, solver, stats)?;
-            let k3 = tangent(h, &axpy(x, half, &k2), t + half, solver, stats)?;
-            let k4 = tangent(h, &axpy(x, dt, &k3), t + dt, solver, stats)?;
-            let c = S::from_real(dt / 6.0);
-            let two = S::from_real(2.0);
-            let mut out = *x;
-            for i in 0..NX {
-                out[i] += c * (k1[i] + two * (k2[i] + k3[i]) + k4[i]);
-            }
-            out
-        }
-    };
-    if all_finite(&xp) {
-        Ok(xp)
-    } else {
-        Err(Trouble::NonFinite)
-    }
 }

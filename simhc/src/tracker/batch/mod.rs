@@ -11,10 +11,9 @@
 //!
 //! Every request a path makes is the same operation: at its `(x, t)`, evaluate `H`, `J_x` and
 //! `dH/dt`, factor `J_x` and return the Newton update `J_x^-1 H` together with the tangent
-//! `-J_x^-1 dH/dt`. A path is a small state machine (`Path`) running the adaptive tracker of
-//! [`super::Tracker`] with the Heun or RK4 predictor — same step rules (shared code in
-//! `step_size`), same corrector decisions (the corrector's shared `apply_update`) — one request
-//! at a time;
+//! `-J_x^-1 dH/dt`. Each lane runs the path state machine of [`super::Tracker`] (module
+//! `path`: the same algorithm, the same code) with the Heun or RK4 predictor, one request at a
+//! time;
 //! a lane whose path ends takes the next start point ([`PathQueue`]: a caller's queue may add
 //! paths as results come in). Lanes never mix, so a path's result does
 //! not depend on its lane or its neighbours (nor on the thread count when batches run in
@@ -24,16 +23,15 @@
 //! multiply-adds where the CPU has them, threshold pivoting), so end points agree to rounding,
 //! not bit for bit.
 
-use super::corrector::{apply_update, max_abs, norm_weights, weighted_norm, CorrectorReport, CorrectorSettings};
 use super::options::{AdaptiveStep, Predictor, StepControl, TrackerOptions};
-use super::predictor::all_finite;
-use super::step_size;
-use super::{TrackError, TrackResult, TrackStats, Trouble, OMEGA_NOISE_FLOOR};
+use super::path::{Eval, Next, TrackerState};
+use super::{TrackError, TrackResult, Trouble};
 use crate::homotopy::Homotopy;
-use crate::lanes::{dispatch, Kernel, Lanes};
+use crate::lanes::{Kernel, Lanes};
 use crate::CoefficientForm;
 use nalgebra::SVector;
 use std::marker::PhantomData;
+use thiserror::Error;
 use wide::{horner, solve_lanes, Factor, Wide};
 
 mod wide;
@@ -124,87 +122,29 @@ fn lane_of<const W: usize, const FMA: bool, const N: usize>(v: &[Wide<W, FMA>; N
     SVector::from_fn(|i, _| v[i].get(l))
 }
 
-/// The instruction set of the batch operation, and with it the paths per operation.
+/// The instruction set of the batch operation, and with it the paths per operation: the
+/// crate's one run-time dispatcher, [`crate::lanes::Isa`].
 ///
 /// Why a choice: the operation's arithmetic fills whole vector registers of the CPU (see
 /// `wide`), so the width follows the instruction set. [`LaneIsa::detect`] picks the widest
 /// available; the others stay selectable ([`track_batch_with`]) to compare and test them on
 /// one machine. End points agree across instruction sets to rounding.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum LaneIsa {
-    /// 8 paths per operation in AVX-512 registers, fused multiply-adds.
-    Avx512,
-    /// 4 paths in AVX2 registers, fused multiply-adds.
-    Avx2,
-    /// 4 paths, the baseline instruction set, unfused arithmetic (any CPU).
-    Baseline,
-}
+pub use crate::lanes::Isa as LaneIsa;
 
 impl LaneIsa {
-    /// Every instruction set, widest first.
-    pub const ALL: [LaneIsa; 3] = [LaneIsa::Avx512, LaneIsa::Avx2, LaneIsa::Baseline];
-
-    /// The widest instruction set this CPU runs.
-    pub fn detect() -> Self {
-        Self::ALL.into_iter().find(|isa| isa.available()).unwrap_or(LaneIsa::Baseline)
-    }
-
-    /// Whether this CPU runs it (checked at run time).
-    pub fn available(self) -> bool {
-        match self {
-            #[cfg(target_arch = "x86_64")]
-            LaneIsa::Avx512 => {
-                std::is_x86_feature_detected!("avx512f")
-                    && std::is_x86_feature_detected!("avx512vl")
-                    && LaneIsa::Avx2.available()
-            }
-            #[cfg(target_arch = "x86_64")]
-            LaneIsa::Avx2 => std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma"),
-            LaneIsa::Baseline => true,
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => false,
-        }
-    }
-
     /// Paths per operation with AVX-512 (one register per part).
     const WIDE: usize = 8;
     /// Paths per operation with AVX2 and the baseline.
     const NARROW: usize = 4;
 
-    /// Paths per operation.
+    /// Paths per batch operation: 8 with AVX-512, 4 with AVX2 (fused multiply-adds) and the
+    /// baseline (unfused arithmetic).
     pub fn width(self) -> usize {
         match self {
             LaneIsa::Avx512 => Self::WIDE,
             LaneIsa::Avx2 | LaneIsa::Baseline => Self::NARROW,
         }
     }
-
-    /// Runs `kernel` compiled for this instruction set. Callers check [`LaneIsa::available`].
-    #[inline(always)]
-    fn run<K: Kernel>(self, kernel: K) {
-        match self {
-            #[cfg(target_arch = "x86_64")]
-            LaneIsa::Avx512 if self.available() => {
-                // SAFETY: `run_avx512` requires AVX-512F/VL, AVX2 and FMA, just checked (the
-                // standard library caches the detection).
-                #[allow(unsafe_code)]
-                unsafe {
-                    run_avx512(kernel)
-                }
-            }
-            LaneIsa::Avx2 => dispatch(kernel),
-            _ => kernel.run(),
-        }
-    }
-}
-
-/// [`Kernel::run`] compiled for AVX-512 (the inlined operation's 8-lane loops become 512-bit
-/// instructions).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512vl,avx2,fma")]
-#[allow(unsafe_code)]
-unsafe fn run_avx512<K: Kernel>(kernel: K) {
-    kernel.run()
 }
 
 /// One batch operation: at each lane's `(x, t)`, `u = J_x^-1 H` and `v = -J_x^-1 dH/dt`.
@@ -287,308 +227,42 @@ fn coefficients<const K: usize, const W: usize, const FMA: bool>(
     }
 }
 
-/// What a path does with the next operation's result.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Phase {
-    /// Tangent at the start point.
-    Start,
-    /// A predictor stage's tangent: Heun's one at the Euler point, or RK4's three.
-    Stage(u8),
-    /// A corrector update at `t1`.
-    Correct,
-    /// The final refinement at `t = 1`.
-    Final,
-}
-
-/// One path's tracker state (see the module docs).
+/// One lane's path: its job, the path state machine ([`TrackerState`], run exactly as the
+/// scalar driver runs it), what the machine asked for, and the tangent that came with its last
+/// corrector update (the lanes' answer to [`Eval::TangentAtAccepted`]).
 #[derive(Debug, Clone, Copy)]
-struct Path<const N: usize> {
-    x: SVector<C, N>,
-    t: f64,
-    dt: f64,
-    accuracy: f64,
-    omega: Option<f64>,
-    stats: TrackStats,
-    last_rejected: bool,
-    tangent: SVector<C, N>,
-    weights: SVector<f64, N>,
-    phase: Phase,
-    /// The step in progress: target time, step, predicted point / corrector iterate.
-    t1: f64,
-    h: f64,
-    /// RK4's second and third stage tangents.
-    k2: SVector<C, N>,
-    k3: SVector<C, N>,
-    iterate: SVector<C, N>,
-    moved: f64,
-    settings: CorrectorSettings,
-    report: CorrectorReport,
-    prev: f64,
-    /// The point and time of the next request.
-    at: SVector<C, N>,
-    at_t: f64,
+struct Lane<const N: usize> {
+    job: PathJob,
+    path: TrackerState<C, N>,
+    eval: Eval,
+    v: SVector<C, N>,
 }
 
-/// The result of feeding a path one operation.
-enum Next<const N: usize> {
-    Request,
-    Done(Result<TrackResult<C, N>, TrackError>),
-}
+impl<const N: usize> Lane<N> {
+    /// Runs the machine on to its next request for the batch operation (answering the ones the
+    /// lane answers itself, and starting each next attempt); `false` when the path has ended.
+    #[inline]
+    fn advance(&mut self, mut next: Next, o: &TrackerOptions) -> bool {
+        loop {
+            next = match next {
+                Next::Eval(Eval::TangentAtAccepted) => self.path.feed(o, true, Ok(self.v)),
+                Next::Eval(eval) => {
+                    self.eval = eval;
+                    return true;
+                }
+                Next::Ready => self.path.begin_step(o, true),
+                Next::Ended => return false,
+            }
+        }
+    }
 
-impl<const N: usize> Path<N> {
-    /// Checks `x0` like [`super::Tracker::start`] and asks for the start tangent.
-    fn start(x0: &SVector<C, N>, o: &TrackerOptions, a: &AdaptiveStep) -> Result<Self, TrackError> {
-        let dt = a.initial.min(a.max);
-        if !(dt > 0.0 && dt.is_finite()) {
-            return Err(TrackError::StepSizeTooSmall { t: 0.0 });
-        }
-        if !all_finite(x0) {
-            return Err(TrackError::NonFinite { t: 0.0 });
-        }
-        if max_abs(x0) > o.max_norm {
-            return Err(TrackError::DivergedToInfinity { t: 0.0 });
-        }
-        Ok(Self {
-            x: *x0,
-            t: 0.0,
-            dt,
-            accuracy: f64::NAN,
-            omega: None,
-            stats: TrackStats::default(),
-            last_rejected: false,
-            tangent: SVector::zeros(),
-            weights: norm_weights(x0),
-            phase: Phase::Start,
-            t1: 0.0,
-            h: 0.0,
-            k2: SVector::zeros(),
-            k3: SVector::zeros(),
-            iterate: *x0,
-            moved: 0.0,
-            settings: CorrectorSettings::refine(0, 0.0, f64::INFINITY),
-            report: CorrectorReport::new(),
-            prev: f64::NAN,
-            at: *x0,
-            at_t: 0.0,
+    /// The ended path's result, with `h`'s validation residual at the end point.
+    fn result<H: Homotopy<C, N, N>>(&self, h: &H) -> Result<TrackResult<C, N>, TrackError> {
+        self.path.result().map(|mut r| {
+            r.residual = h.validation_residual(&r.x, 1.0);
+            r
         })
     }
-
-    /// Starts the next predictor-corrector attempt (or fails on the step budget).
-    fn begin_step(&mut self, o: &TrackerOptions) -> Next<N> {
-        if self.stats.steps() >= o.max_steps {
-            return Next::Done(Err(TrackError::MaxSteps { t: self.t }));
-        }
-        self.t1 = if self.t + 1.05 * self.dt >= 1.0 { 1.0 } else { self.t + self.dt };
-        self.h = self.t1 - self.t;
-        if o.predictor == Predictor::Rk4 {
-            self.at = self.x + self.tangent * C::new(0.5 * self.h, 0.0);
-            self.at_t = self.t + 0.5 * self.h;
-        } else {
-            self.at = self.x + self.tangent * C::new(self.h, 0.0);
-            self.at_t = self.t1;
-        }
-        self.phase = Phase::Stage(0);
-        Next::Request
-    }
-
-    /// Feeds the operation's result at the requested point.
-    fn feed(
-        &mut self,
-        u: &SVector<C, N>,
-        v: &SVector<C, N>,
-        status: Factor,
-        o: &TrackerOptions,
-        a: &AdaptiveStep,
-    ) -> Next<N> {
-        self.stats.factorizations += 1;
-        let trouble = match status {
-            Factor::Ok => None,
-            Factor::Singular => Some(Trouble::Singular),
-            Factor::NonFinite => Some(Trouble::NonFinite),
-        };
-        match self.phase {
-            Phase::Start => {
-                if let Some(tr) = trouble {
-                    return Next::Done(Err(tr.into_error(0.0)));
-                }
-                if !all_finite(v) {
-                    return Next::Done(Err(TrackError::NonFinite { t: 0.0 }));
-                }
-                self.tangent = *v;
-                self.begin_step(o)
-            }
-            Phase::Stage(stage) => {
-                if let Some(tr) = trouble {
-                    return self.reject(tr, None, o, a);
-                }
-                let xp = match (o.predictor, stage) {
-                    (Predictor::Rk4, 0) => {
-                        self.k2 = *v;
-                        self.at = self.x + v * C::new(0.5 * self.h, 0.0);
-                        self.phase = Phase::Stage(1);
-                        return Next::Request;
-                    }
-                    (Predictor::Rk4, 1) => {
-                        self.k3 = *v;
-                        self.at = self.x + v * C::new(self.h, 0.0);
-                        self.at_t = self.t1;
-                        self.phase = Phase::Stage(2);
-                        return Next::Request;
-                    }
-                    (Predictor::Rk4, _) => {
-                        let sum = self.tangent + (self.k2 + self.k3) * C::new(2.0, 0.0) + v;
-                        self.x + sum * C::new(self.h / 6.0, 0.0)
-                    }
-                    _ => self.x + (self.tangent + v) * C::new(0.5 * self.h, 0.0),
-                };
-                if !all_finite(&xp) {
-                    return self.reject(Trouble::NonFinite, None, o, a);
-                }
-                self.moved = weighted_norm(&(xp - self.x), &self.weights);
-                self.settings = CorrectorSettings {
-                    max_contraction: a.max_contraction,
-                    omega: self.omega,
-                    max_first_update: a.max_relative_correction * self.moved
-                        + 2.0 * self.accuracy.max(o.path_tolerance),
-                    ..CorrectorSettings::adaptive_step(o.max_newton_iterations, o.path_tolerance, o.path_reduction, o.max_norm)
-                };
-                self.report = CorrectorReport::new();
-                self.prev = f64::NAN;
-                self.iterate = xp;
-                self.at = xp;
-                self.phase = Phase::Correct;
-                Next::Request
-            }
-            Phase::Correct | Phase::Final => {
-                let last = self.phase == Phase::Final;
-                self.stats.newton_iterations += 1;
-                self.report.iterations += 1;
-                let stop = match trouble {
-                    Some(tr) => {
-                        self.report.outcome = Err(tr);
-                        true
-                    }
-                    None => apply_update(
-                        &mut self.iterate,
-                        u,
-                        &self.weights,
-                        &self.settings,
-                        &mut self.report,
-                        &mut self.prev,
-                        true,
-                    ),
-                };
-                if !stop && self.report.iterations < self.settings.max_iterations {
-                    self.at = self.iterate;
-                    return Next::Request;
-                }
-                if !stop {
-                    self.report.outcome = Err(Trouble::NotConverged);
-                }
-                if last {
-                    return self.finished_refinement(o);
-                }
-                if self.moved > 0.0 {
-                    self.report.relative_correction = self.report.norm_dx0 / self.moved;
-                }
-                match self.report.outcome {
-                    Ok(()) => self.accept(v, o, a),
-                    Err(tr) => {
-                        let report = self.report;
-                        self.reject(tr, Some(&report), o, a)
-                    }
-                }
-            }
-        }
-    }
-
-    fn accept(&mut self, v: &SVector<C, N>, o: &TrackerOptions, a: &AdaptiveStep) -> Next<N> {
-        let after_rejection = self.last_rejected;
-        let report = self.report;
-        self.x = self.iterate;
-        self.t = self.t1;
-        self.stats.accepted_steps += 1;
-        self.last_rejected = false;
-        self.accuracy = report.accuracy;
-        if max_abs(&self.x) > o.max_norm {
-            return Next::Done(Err(TrackError::DivergedToInfinity { t: self.t }));
-        }
-        let omega_before = self.omega;
-        if report.norm_dx1 > OMEGA_NOISE_FLOOR && report.norm_dx0 > 0.0 {
-            self.omega = Some(2.0 * step_size::step_theta(&report) / report.norm_dx0);
-        } else if report.theta1.is_finite() {
-            self.omega = None;
-        }
-        self.weights = norm_weights(&self.x);
-        if self.t >= 1.0 {
-            return self.finish(o);
-        }
-        if !all_finite(v) {
-            return Next::Done(Err(TrackError::NonFinite { t: self.t }));
-        }
-        self.tangent = *v;
-        let f = step_size::grow_factor(a, o.predictor.order(), &report, omega_before, after_rejection);
-        self.dt = (self.dt * f).min(a.max);
-        self.begin_step(o)
-    }
-
-    fn reject(
-        &mut self,
-        trouble: Trouble,
-        report: Option<&CorrectorReport>,
-        o: &TrackerOptions,
-        a: &AdaptiveStep,
-    ) -> Next<N> {
-        self.stats.rejected_steps += 1;
-        self.last_rejected = true;
-        self.dt *= step_size::shrink_factor(a, o.predictor.order(), trouble, report, self.omega);
-        if self.dt < a.min {
-            return Next::Done(Err(trouble.into_stall_error(self.t)));
-        }
-        self.begin_step(o)
-    }
-
-    /// At `t = 1`: refine to `final_tolerance` if needed (like [`super::Tracker`]'s `finish`).
-    fn finish(&mut self, o: &TrackerOptions) -> Next<N> {
-        if !reached(self.accuracy, o.final_tolerance) && o.final_newton_iterations > 0 {
-            self.settings = CorrectorSettings::refine(o.final_newton_iterations, o.final_tolerance, o.max_norm);
-            self.report = CorrectorReport::new();
-            self.prev = f64::NAN;
-            self.iterate = self.x;
-            self.at = self.x;
-            self.at_t = 1.0;
-            self.phase = Phase::Final;
-            return Next::Request;
-        }
-        self.success(o)
-    }
-
-    fn finished_refinement(&mut self, o: &TrackerOptions) -> Next<N> {
-        match self.report.outcome {
-            Ok(()) | Err(Trouble::NotConverged) | Err(Trouble::Contraction) => {
-                self.x = self.iterate;
-                self.accuracy = self.report.accuracy;
-                self.success(o)
-            }
-            Err(other) => Next::Done(Err(other.into_error(1.0))),
-        }
-    }
-
-    fn success(&mut self, o: &TrackerOptions) -> Next<N> {
-        if o.require_final_convergence && !reached(self.accuracy, o.final_tolerance) {
-            return Next::Done(Err(TrackError::CorrectorDidNotConverge { t: 1.0 }));
-        }
-        if !all_finite(&self.x) {
-            return Next::Done(Err(TrackError::NonFinite { t: 1.0 }));
-        }
-        Next::Done(Ok(TrackResult { x: self.x, t: 1.0, stats: self.stats, accuracy: self.accuracy, residual: f64::NAN }))
-    }
-}
-
-/// Whether the estimated error `accuracy` (NaN: unknown) is within `tolerance`.
-#[inline]
-fn reached(accuracy: f64, tolerance: f64) -> bool {
-    accuracy <= tolerance
 }
 
 /// Whether [`track_batch`] runs `options`: the adaptive tracker without drag steps, with the
@@ -598,17 +272,54 @@ pub fn batch_supported(options: &TrackerOptions) -> bool {
         && matches!(options.predictor, Predictor::Heun | Predictor::Rk4)
 }
 
+/// A batch call or job the lanes do not run: misuse of the batch API, never the numerics of a
+/// path (those end a path with a [`TrackError`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Error)]
+pub enum BatchError {
+    /// The instruction set does not run on this CPU ([`LaneIsa::available`]).
+    #[error("the {0:?} instruction set does not run on this CPU")]
+    UnavailableIsa(LaneIsa),
+    /// Tracker settings the lanes do not run ([`batch_supported`]: fixed or drag steps, or a
+    /// predictor other than Heun and RK4).
+    #[error("tracker settings {index} are not supported in lanes")]
+    UnsupportedSettings {
+        /// Index of the settings.
+        index: usize,
+    },
+    /// A job named a start point that does not exist.
+    #[error("no start point with index {index} ({available} given)")]
+    NoStartPoint {
+        /// The requested index.
+        index: usize,
+        /// How many start points there are.
+        available: usize,
+    },
+    /// A job named tracker settings that do not exist ([`PathJob::settings`] beyond the
+    /// settings given to [`track_batch_queue`]).
+    #[error("no tracker settings with index {index} ({available} given)")]
+    NoTrackerSettings {
+        /// The requested index.
+        index: usize,
+        /// How many settings there are.
+        available: usize,
+    },
+}
+
+/// One path's result in a batch: its end point or why the path was given up.
+pub type PathResult<const N: usize> = Result<TrackResult<C, N>, TrackError>;
+
 /// Tracks the start points `starts[i]` for every `i` in `indices` along `system`, several at a
-/// time, with `options` (see [`batch_supported`]; otherwise `None`). Results are in the order
-/// of `indices`; `h` — the same homotopy in scalar form — gives each end point's
-/// [`Homotopy::validation_residual`]. Allocates only its output and a scratch buffer.
+/// time, with `options` (see [`batch_supported`]). Results are in the order of `indices`; `h` —
+/// the same homotopy in scalar form — gives each end point's
+/// [`Homotopy::validation_residual`]. A [`BatchError`] (unsupported settings, an index beyond
+/// `starts`) comes before any tracking. Allocates only its output and a scratch buffer.
 pub fn track_batch<P, H, const N: usize, const NP: usize, const NC: usize>(
     system: &LaneSystem<P, N, NC>,
     h: &H,
     starts: &[SVector<C, N>],
     indices: &[usize],
     options: &TrackerOptions,
-) -> Option<Vec<Result<TrackResult<C, N>, TrackError>>>
+) -> Result<Vec<PathResult<N>>, BatchError>
 where
     P: CoefficientForm<N, N, NP, NC>,
     H: Homotopy<C, N, N>,
@@ -616,8 +327,8 @@ where
     track_batch_with(LaneIsa::detect(), system, h, starts, indices, options)
 }
 
-/// [`track_batch`] with the batch operation compiled for `isa` (`None` also when this CPU does
-/// not run it).
+/// [`track_batch`] with the batch operation compiled for `isa`
+/// ([`BatchError::UnavailableIsa`] when this CPU does not run it).
 pub fn track_batch_with<P, H, const N: usize, const NP: usize, const NC: usize>(
     isa: LaneIsa,
     system: &LaneSystem<P, N, NC>,
@@ -625,13 +336,17 @@ pub fn track_batch_with<P, H, const N: usize, const NP: usize, const NC: usize>(
     starts: &[SVector<C, N>],
     indices: &[usize],
     options: &TrackerOptions,
-) -> Option<Vec<Result<TrackResult<C, N>, TrackError>>>
+) -> Result<Vec<PathResult<N>>, BatchError>
 where
     P: CoefficientForm<N, N, NP, NC>,
     H: Homotopy<C, N, N>,
 {
+    if let Some(&index) = indices.iter().find(|&&i| i >= starts.len()) {
+        return Err(BatchError::NoStartPoint { index, available: starts.len() });
+    }
     let mut queue = InOrder::new(indices);
-    track_batch_queue(isa, system, h, starts, std::slice::from_ref(options), &mut queue).then(|| queue.into_results())
+    track_batch_queue(isa, system, h, starts, std::slice::from_ref(options), &mut queue)?;
+    queue.into_results()
 }
 
 /// One path for [`track_batch_queue`]: start point `starts[start]` tracked with
@@ -654,8 +369,11 @@ pub trait PathQueue<const N: usize> {
     /// The next path to track, `None` when there is none now (asked again after the next
     /// operation; tracking ends when no path is in flight and the queue has none).
     fn next(&mut self) -> Option<PathJob>;
-    /// The result of a job that [`PathQueue::next`] returned.
-    fn finished(&mut self, job: PathJob, result: Result<TrackResult<C, N>, TrackError>);
+    /// The result of a tracked job that [`PathQueue::next`] returned.
+    fn finished(&mut self, job: PathJob, result: PathResult<N>);
+    /// A job that [`PathQueue::next`] returned and that was not tracked: its start point or
+    /// settings index does not exist.
+    fn refused(&mut self, job: PathJob, error: BatchError);
 }
 
 /// The queue of [`track_batch_with`]: the start points `indices` in order, all with settings
@@ -664,13 +382,14 @@ pub trait PathQueue<const N: usize> {
 pub struct InOrder<'a, const N: usize> {
     indices: &'a [usize],
     next: usize,
-    results: Vec<Option<Result<TrackResult<C, N>, TrackError>>>,
+    results: Vec<Option<PathResult<N>>>,
+    refused: Option<BatchError>,
 }
 
 impl<'a, const N: usize> InOrder<'a, N> {
     /// The jobs for `indices`, none handed out yet.
     pub fn new(indices: &'a [usize]) -> Self {
-        Self { indices, next: 0, results: vec![None; indices.len()] }
+        Self { indices, next: 0, results: vec![None; indices.len()], refused: None }
     }
 
     /// The start indices, by job `id`.
@@ -679,14 +398,17 @@ impl<'a, const N: usize> InOrder<'a, N> {
     }
 
     /// The result of job `id`, if it has finished.
-    pub fn result(&self, id: usize) -> Option<&Result<TrackResult<C, N>, TrackError>> {
+    pub fn result(&self, id: usize) -> Option<&PathResult<N>> {
         self.results.get(id)?.as_ref()
     }
 
     /// The results in the order of `indices` (a job never handed out, which tracking to the
-    /// end does not leave: `NonFinite` at `t = 0`).
-    pub fn into_results(self) -> Vec<Result<TrackResult<C, N>, TrackError>> {
-        self.results.into_iter().map(|r| r.unwrap_or(Err(TrackError::NonFinite { t: 0.0 }))).collect()
+    /// end does not leave: `NonFinite` at `t = 0`), or the first refused job's error.
+    pub fn into_results(self) -> Result<Vec<PathResult<N>>, BatchError> {
+        if let Some(e) = self.refused {
+            return Err(e);
+        }
+        Ok(self.results.into_iter().map(|r| r.unwrap_or(Err(TrackError::NonFinite { t: 0.0 }))).collect())
     }
 }
 
@@ -698,18 +420,22 @@ impl<const N: usize> PathQueue<N> for InOrder<'_, N> {
         Some(PathJob { id, start, settings: 0 })
     }
 
-    fn finished(&mut self, job: PathJob, result: Result<TrackResult<C, N>, TrackError>) {
+    fn finished(&mut self, job: PathJob, result: PathResult<N>) {
         if let Some(slot) = self.results.get_mut(job.id) {
             *slot = Some(result);
         }
     }
+
+    fn refused(&mut self, _job: PathJob, error: BatchError) {
+        self.refused.get_or_insert(error);
+    }
 }
 
 /// Tracks the paths that `queue` hands out along `system`, one per lane of `isa`'s batch
-/// operation (see [`track_batch`]), each with its job's entry of `settings`. Returns `false`
-/// without tracking when `isa` does not run on this CPU or some entry of `settings` is not
-/// [`batch_supported`]. A job whose start point or settings index does not exist ends with
-/// [`TrackError::NoStartPoint`] / [`TrackError::NoTrackerSettings`].
+/// operation (see [`track_batch`]), each with its job's entry of `settings`. Fails without
+/// tracking when `isa` does not run on this CPU or some entry of `settings` is not
+/// [`batch_supported`]. A job whose start point or settings index does not exist goes back to
+/// [`PathQueue::refused`]; the other jobs are tracked.
 pub fn track_batch_queue<P, H, Q, const N: usize, const NP: usize, const NC: usize>(
     isa: LaneIsa,
     system: &LaneSystem<P, N, NC>,
@@ -717,36 +443,33 @@ pub fn track_batch_queue<P, H, Q, const N: usize, const NP: usize, const NC: usi
     starts: &[SVector<C, N>],
     settings: &[TrackerOptions],
     queue: &mut Q,
-) -> bool
+) -> Result<(), BatchError>
 where
     P: CoefficientForm<N, N, NP, NC>,
     H: Homotopy<C, N, N>,
     Q: PathQueue<N>,
 {
     if !isa.available() {
-        return false;
+        return Err(BatchError::UnavailableIsa(isa));
     }
-    let mut steps = Vec::with_capacity(settings.len());
-    for o in settings {
-        match o.step {
-            StepControl::Adaptive(a) if batch_supported(o) => steps.push((*o, a)),
-            _ => return false,
-        }
+    if let Some(index) = settings.iter().position(|o| !batch_supported(o)) {
+        return Err(BatchError::UnsupportedSettings { index });
     }
-    let run = (system, h, starts, steps.as_slice(), isa);
+    let run = (system, h, starts, settings, isa);
     match isa {
         LaneIsa::Avx512 => track_lanes::<P, H, Q, N, NP, NC, { LaneIsa::WIDE }, true>(run, queue),
         LaneIsa::Avx2 => track_lanes::<P, H, Q, N, NP, NC, { LaneIsa::NARROW }, true>(run, queue),
         LaneIsa::Baseline => track_lanes::<P, H, Q, N, NP, NC, { LaneIsa::NARROW }, false>(run, queue),
     }
-    true
+    Ok(())
 }
 
 /// The arguments of [`track_lanes`].
 type Run<'a, P, H, const N: usize, const NC: usize> =
-    (&'a LaneSystem<P, N, NC>, &'a H, &'a [SVector<C, N>], &'a [(TrackerOptions, AdaptiveStep)], LaneIsa);
+    (&'a LaneSystem<P, N, NC>, &'a H, &'a [SVector<C, N>], &'a [TrackerOptions], LaneIsa);
 
-/// [`track_batch_queue`] with `W` paths per operation and fused (`FMA`) or plain arithmetic.
+/// [`track_batch_queue`] with `W` paths per operation and fused (`FMA`) or plain arithmetic:
+/// the lane driver of the path state machine.
 fn track_lanes<P, H, Q, const N: usize, const NP: usize, const NC: usize, const W: usize, const FMA: bool>(
     (system, h, starts, settings, isa): Run<'_, P, H, N, NC>,
     queue: &mut Q,
@@ -755,23 +478,30 @@ fn track_lanes<P, H, Q, const N: usize, const NP: usize, const NC: usize, const 
     H: Homotopy<C, N, N>,
     Q: PathQueue<N>,
 {
-    let mut slots: [Option<(PathJob, Path<N>)>; W] = [None; W];
+    let mut slots: [Option<Lane<N>>; W] = [None; W];
     let mut scratch = vec![Wide::<W, FMA>::default(); 2 * system.per_row + system.shared];
     // Fills a free lane with the queue's next path that starts cleanly.
-    let refill = |slot: &mut Option<(PathJob, Path<N>)>, queue: &mut Q| {
+    let refill = |slot: &mut Option<Lane<N>>, queue: &mut Q| {
         while let Some(job) = queue.next() {
-            let started = match (starts.get(job.start), settings.get(job.settings)) {
-                (None, _) => Err(TrackError::NoStartPoint { index: job.start, available: starts.len() }),
-                (_, None) => Err(TrackError::NoTrackerSettings { index: job.settings, available: settings.len() }),
-                (Some(x0), Some((o, a))) => Path::start(x0, o, a),
-            };
-            match started {
-                Ok(p) => {
-                    *slot = Some((job, p));
-                    return;
+            let (x0, o) = match (starts.get(job.start), settings.get(job.settings)) {
+                (None, _) => {
+                    queue.refused(job, BatchError::NoStartPoint { index: job.start, available: starts.len() });
+                    continue;
                 }
-                Err(e) => queue.finished(job, Err(e)),
+                (_, None) => {
+                    let e = BatchError::NoTrackerSettings { index: job.settings, available: settings.len() };
+                    queue.refused(job, e);
+                    continue;
+                }
+                (Some(x0), Some(o)) => (x0, o),
+            };
+            let mut lane = Lane { job, path: TrackerState::new(true), eval: Eval::Tangent, v: SVector::zeros() };
+            let next = lane.path.start(x0, o);
+            if lane.advance(next, o) {
+                *slot = Some(lane);
+                return;
             }
+            queue.finished(job, lane.result(h));
         }
     };
     let mut x = [Wide::<W, FMA>::default(); N];
@@ -781,13 +511,13 @@ fn track_lanes<P, H, Q, const N: usize, const NP: usize, const NC: usize, const 
         for slot in slots.iter_mut().filter(|s| s.is_none()) {
             refill(slot, queue);
         }
-        let Some(filler) = slots.iter().flatten().next().map(|(_, p)| (p.at, p.at_t)) else {
+        let Some(filler) = slots.iter().flatten().next().map(|lane| lane.path.at()).map(|(at, t)| (*at, t)) else {
             break;
         };
         let mut t = [0.0; W];
         for (l, slot) in slots.iter().enumerate() {
             // Idle lanes repeat an active lane's request (finite, discarded).
-            let (at, at_t) = slot.as_ref().map_or(filler, |(_, p)| (p.at, p.at_t));
+            let (at, at_t) = slot.as_ref().map_or((&filler.0, filler.1), |lane| lane.path.at());
             for i in 0..N {
                 x[i].set(l, at[i]);
             }
@@ -805,21 +535,24 @@ fn track_lanes<P, H, Q, const N: usize, const NP: usize, const NC: usize, const 
             scratch: &mut scratch,
         });
         for (l, slot) in slots.iter_mut().enumerate() {
-            let Some((job, path)) = slot.as_mut() else {
+            let Some(lane) = slot.as_mut() else {
                 continue;
             };
-            let (o, a) = &settings[job.settings];
-            let (ul, vl) = (lane_of(&u, l), lane_of(&v, l));
-            if let Next::Done(r) = path.feed(&ul, &vl, status[l], o, a) {
-                let job = *job;
+            let o = &settings[lane.job.settings];
+            let result = match status[l] {
+                Factor::Ok if lane.eval == Eval::Update => {
+                    lane.v = lane_of(&v, l);
+                    Ok(lane_of(&u, l))
+                }
+                Factor::Ok => Ok(lane_of(&v, l)),
+                Factor::Singular => Err(Trouble::Singular),
+                Factor::NonFinite => Err(Trouble::NonFinite),
+            };
+            let next = lane.path.feed(o, true, result);
+            if !lane.advance(next, o) {
+                let (job, result) = (lane.job, lane.result(h));
                 *slot = None;
-                queue.finished(
-                    job,
-                    r.map(|mut tr| {
-                        tr.residual = h.validation_residual(&tr.x, 1.0);
-                        tr
-                    }),
-                );
+                queue.finished(job, result);
             }
         }
     }

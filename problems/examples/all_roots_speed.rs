@@ -24,27 +24,15 @@ fn bench(trials: u64) {
     // coefficient row kernel (`param_lanes: false`, the same paths) and with each narrower
     // instruction set this CPU runs.
     let isas = LaneIsa::ALL.into_iter().filter(|isa| isa.available()).skip(1);
-    let runs = [(false, None, true), (true, None, true), (false, None, false)]
-        .into_iter()
-        .chain(isas.map(|isa| (false, Some(isa), true)));
+    let runs = [(false, None, true), (true, None, true), (false, None, false)].into_iter().chain(isas.map(|isa| (false, Some(isa), true)));
     for (parallel, lane_isa, param_lanes) in runs {
-        let options = AllRootsOptions {
-            parallel,
-            lane_isa,
-            param_lanes,
-            ..AllRootsOptions::default()
-        };
+        let options = AllRootsOptions { parallel, lane_isa, param_lanes, ..AllRootsOptions::default() };
         let threads = if parallel { rayon_threads() } else { 1 };
         let isa = lane_isa.unwrap_or_else(LaneIsa::detect);
         // GRPS7.
         let (mut times, mut found, mut paths, mut failed, mut retracked) = (Vec::new(), 0, 0, 0, 0);
         for seed in 0..trials {
-            let scene = GrpsSceneConfig {
-                points: 7,
-                ..Default::default()
-            }
-            .sample_seeded(seed)
-            .unwrap();
+            let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(seed).unwrap();
             let p = Grps7::params(&grps::rows_of::<7>(&scene.correspondences).unwrap());
             let gt = grps::unknowns_of(&scene.rotation, &scene.translation, scene.scale);
             let t0 = Instant::now();
@@ -71,23 +59,14 @@ fn bench(trials: u64) {
         // UPnP (noise-free: the global minimum is the ground truth; no path lanes).
         let (mut times, mut found) = (Vec::new(), 0);
         for seed in 0..trials {
-            let scene = UpnpSceneConfig {
-                noise_px: 0.0,
-                ..Default::default()
-            }
-            .sample_seeded(seed)
-            .unwrap();
+            let scene = UpnpSceneConfig { noise_px: 0.0, ..Default::default() }.sample_seeded(seed).unwrap();
             let p = upnp::params_of(&upnp_cost_matrix(&scene.correspondences).unwrap());
             let t0 = Instant::now();
             let res = solve_upnp(&p, &options);
             times.push(t0.elapsed().as_secs_f64() * 1e3);
             let q = simhc_problems::metrics::quat_from_rotation(&scene.rotation);
             let gt = nalgebra::SVector::<f64, 5>::from([q[0], q[1], q[2], q[3], 0.0]);
-            found += res
-                .real
-                .iter()
-                .any(|s| (0..4).all(|k| (s.x[k] - gt[k]).abs() < 1e-6))
-                as usize;
+            found += res.real.iter().any(|s| (0..4).all(|k| (s.x[k] - gt[k]).abs() < 1e-6)) as usize;
         }
         println!(
             "upnp  all-roots ({threads} thread{}): ground truth found {found}/{trials}, median {:.3} ms, mean {:.3} ms per solve (40 paths)",

@@ -117,8 +117,7 @@ fn main() {
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let k = start.solutions.len() as f64;
         let coefficients = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly());
-        let parameters =
-            LaneSystem::<Grps7, 8, { Grps7::NC }>::from_parameter_path::<84>(&h.parameter_path().param_poly());
+        let parameters = LaneSystem::<Grps7, 8, { Grps7::NC }>::from_parameter_path::<84>(&h.parameter_path().param_poly());
         if let (Some(coefficients), Some(parameters)) = (coefficients, parameters) {
             let all: Vec<usize> = (0..start.solutions.len()).collect();
             let batch = |system: &LaneSystem<Grps7, 8, { Grps7::NC }>| {

@@ -29,12 +29,7 @@ const R_PHC: [[&str; 3]; 3] = [
 /// `t.(f x R fp) - s f.R (vp x fp) + f.(v x R fp)`; checked against `Grps7::residual` at the
 /// ground truth before printing.
 fn phc_input(seed: u64) -> Result<String, String> {
-    let scene = GrpsSceneConfig {
-        points: 7,
-        ..Default::default()
-    }
-    .sample_seeded(seed)
-    .map_err(|e| e.to_string())?;
+    let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(seed).map_err(|e| e.to_string())?;
     let rows = grps::rows_of::<7>(&scene.correspondences).ok_or("7 correspondences")?;
     let gt = grps::unknowns_of(&scene.rotation, &scene.translation, scene.scale);
     let r_gt = rotation_from_quat([gt[0], gt[1], gt[2], gt[3]]);
@@ -52,16 +47,9 @@ fn phc_input(seed: u64) -> Result<String, String> {
         for a in 0..3 {
             for b in 0..3 {
                 // Coefficient of R_ab: k0 + k1 t1 + k2 t2 + k3 t3 + k4 sc.
-                let k = [
-                    fp[b] * fv[a],
-                    -fp[b] * cross[a][0],
-                    -fp[b] * cross[a][1],
-                    -fp[b] * cross[a][2],
-                    -f[a] * g[b],
-                ];
+                let k = [fp[b] * fv[a], -fp[b] * cross[a][0], -fp[b] * cross[a][1], -fp[b] * cross[a][2], -f[a] * g[b]];
                 let t = Vector3::new(gt[4], gt[5], gt[6]);
-                check +=
-                    r_gt[(a, b)] * (k[0] + k[1] * t.x + k[2] * t.y + k[3] * t.z + k[4] * gt[7]);
+                check += r_gt[(a, b)] * (k[0] + k[1] * t.x + k[2] * t.y + k[3] * t.z + k[4] * gt[7]);
                 terms.push(format!(
                     "{}*({}{}*t1{}*t2{}*t3{}*sc)",
                     R_PHC[a][b],
@@ -74,10 +62,7 @@ fn phc_input(seed: u64) -> Result<String, String> {
             }
         }
         if (check - f_gt[i]).abs() > 1e-10 || f_gt[i].abs() > 1e-10 {
-            return Err(format!(
-                "row {i}: PHC form {check:e} vs generated {:e}",
-                f_gt[i]
-            ));
+            return Err(format!("row {i}: PHC form {check:e} vs generated {:e}", f_gt[i]));
         }
         text += &terms.join("\n + ");
         text += ";\n";

@@ -151,7 +151,8 @@ pub fn parse_trials<T: TrialFields>(text: &str) -> Result<Vec<T>, InputError> {
             let corrs = correspondences(get("correspondences")?, &at)?;
             let field_at = |field| Location { field: Some(field), ..at.clone() };
             let rows = get("rotation")?;
-            let rows_list = rows.as_array().filter(|r| r.len() == 3).ok_or_else(|| shape(field_at("rotation"), "an array of 3 rows", rows))?;
+            let rows_list =
+                rows.as_array().filter(|r| r.len() == 3).ok_or_else(|| shape(field_at("rotation"), "an array of 3 rows", rows))?;
             let mut rotation = [[0.0; 3]; 3];
             for (r, row) in rows_list.iter().enumerate() {
                 rotation[r] = vector(row, Location { row: Some(r), ..field_at("rotation") })?;
@@ -199,7 +200,11 @@ pub fn parse_layout_params(layout: &Layout, text: &str) -> Result<Vec<f64>, Inpu
             }
         }
     } else if map.contains_key("correspondences") {
-        return Err(InputError::Unknown { at: root, field: "correspondences".into(), expected: "`globals` (this problem has no rows)".into() });
+        return Err(InputError::Unknown {
+            at: root,
+            field: "correspondences".into(),
+            expected: "`globals` (this problem has no rows)".into(),
+        });
     }
     if !layout.globals.is_empty() {
         let globals = map.get("globals").ok_or(InputError::Missing { at: root.clone(), field: "globals" })?;
@@ -218,7 +223,8 @@ pub fn parse_layout_params(layout: &Layout, text: &str) -> Result<Vec<f64>, Inpu
 /// Appends the scalars of one field of kind `kind` (see [`parse_layout_params`]).
 fn field_values(value: &Value, field_kind: FieldKind, at: Location, out: &mut Vec<f64>) -> Result<(), InputError> {
     let matrix = |value: &Value, r: usize, c: usize| -> Result<Vec<Vec<f64>>, InputError> {
-        let rows = value.as_array().filter(|rows| rows.len() == r).ok_or_else(|| shape(at.clone(), format!("an array of {r} rows"), value))?;
+        let rows =
+            value.as_array().filter(|rows| rows.len() == r).ok_or_else(|| shape(at.clone(), format!("an array of {r} rows"), value))?;
         rows.iter().enumerate().map(|(i, row)| numbers(row, c, &Location { row: Some(i), ..at.clone() })).collect()
     };
     match field_kind {
@@ -232,7 +238,11 @@ fn field_values(value: &Value, field_kind: FieldKind, at: Location, out: &mut Ve
                 for j in i..n {
                     let (a, b) = (m[i][j], m[j][i]);
                     if (a - b).abs() > 1e-12 * (1.0 + a.abs().max(b.abs())) {
-                        return Err(InputError::Shape { at: Location { row: Some(j), ..at }, expected: format!("a symmetric matrix (entry {j},{i} equal to {i},{j} = {a})"), got: format!("{b}") });
+                        return Err(InputError::Shape {
+                            at: Location { row: Some(j), ..at },
+                            expected: format!("a symmetric matrix (entry {j},{i} equal to {i},{j} = {a})"),
+                            got: format!("{b}"),
+                        });
                     }
                     out.push(a);
                 }
@@ -250,7 +260,11 @@ fn parse(text: &str) -> Result<Value, InputError> {
         if let Some(cut) = message.rfind(" at line ") {
             message.truncate(cut);
         }
-        let rest = text.lines().nth(line.saturating_sub(1)).map(|l| l.chars().skip(column.saturating_sub(1)).collect::<String>()).unwrap_or_default();
+        let rest = text
+            .lines()
+            .nth(line.saturating_sub(1))
+            .map(|l| l.chars().skip(column.saturating_sub(1)).collect::<String>())
+            .unwrap_or_default();
         let rest = rest.trim_start().trim_start_matches('-');
         if rest.starts_with("NaN") || rest.starts_with("Infinity") || rest.starts_with("nan") || rest.starts_with("inf") {
             message.push_str(" (NaN and Infinity are not JSON numbers; every value must be a finite number)");
@@ -296,7 +310,13 @@ fn numbers(value: &Value, n: usize, at: &Location) -> Result<Vec<f64>, InputErro
     items
         .iter()
         .enumerate()
-        .map(|(k, item)| item.as_f64().ok_or_else(|| InputError::Shape { at: at.clone(), expected: expected.clone(), got: format!("{} at index {k}", kind(item)) }))
+        .map(|(k, item)| {
+            item.as_f64().ok_or_else(|| InputError::Shape {
+                at: at.clone(),
+                expected: expected.clone(),
+                got: format!("{} at index {k}", kind(item)),
+            })
+        })
         .collect()
 }
 
@@ -344,7 +364,15 @@ mod tests {
         let rows: Vec<String> = scene
             .correspondences
             .iter()
-            .map(|c| format!(r#"{{"f": {:?}, "v": {:?}, "fp": {:?}, "vp": {:?}}}"#, c.f.as_slice(), c.v.as_slice(), c.fp.as_slice(), c.vp.as_slice()))
+            .map(|c| {
+                format!(
+                    r#"{{"f": {:?}, "v": {:?}, "fp": {:?}, "vp": {:?}}}"#,
+                    c.f.as_slice(),
+                    c.v.as_slice(),
+                    c.fp.as_slice(),
+                    c.vp.as_slice()
+                )
+            })
             .collect();
         let text = format!(r#"{{"correspondences": [{}]}}"#, rows.join(", "));
         let p = parse_layout_params(&crate::grps::Grps8::LAYOUT, &text).unwrap();

@@ -55,12 +55,7 @@ pub fn quat_from_rotation(r: &Matrix3<f64>) -> [f64; 4] {
     let (m10, m11, m12) = (r[(1, 0)], r[(1, 1)], r[(1, 2)]);
     let (m20, m21, m22) = (r[(2, 0)], r[(2, 1)], r[(2, 2)]);
     // 4 q_k² up to the common factor, from the diagonal.
-    let d = [
-        1.0 + m00 + m11 + m22,
-        1.0 + m00 - m11 - m22,
-        1.0 - m00 + m11 - m22,
-        1.0 - m00 - m11 + m22,
-    ];
+    let d = [1.0 + m00 + m11 + m22, 1.0 + m00 - m11 - m22, 1.0 - m00 + m11 - m22, 1.0 - m00 - m11 + m22];
     let mut k = 0;
     for i in 1..4 {
         if d[i] > d[k] {
@@ -145,22 +140,14 @@ pub fn axis_angle_rotation(axis: &Unit<Vector3<f64>>, angle_rad: f64) -> Matrix3
 /// (left, i.e. world-side, perturbation), so `rotation_error_deg(result, R) == angle_deg` for
 /// `angle_deg` in `[0, 180]` and a rotation `R`. This is the paper's "start = ground truth
 /// perturbed by theta".
-pub fn random_rotation_perturbation<R: Rng + ?Sized>(
-    r: &Matrix3<f64>,
-    angle_deg: f64,
-    rng: &mut R,
-) -> Matrix3<f64> {
+pub fn random_rotation_perturbation<R: Rng + ?Sized>(r: &Matrix3<f64>, angle_deg: f64, rng: &mut R) -> Matrix3<f64> {
     let axis = Unit::new_normalize(random_unit_vector(rng));
     axis_angle_rotation(&axis, angle_deg.to_radians()) * r
 }
 
 /// `t + rel * ||t|| * u` with `u` a uniformly random unit direction, so that
 /// `translation_error_pct(result, t) == rel * 100` exactly (up to rounding).
-pub fn perturb_translation<R: Rng + ?Sized>(
-    t: &Vector3<f64>,
-    rel: f64,
-    rng: &mut R,
-) -> Vector3<f64> {
+pub fn perturb_translation<R: Rng + ?Sized>(t: &Vector3<f64>, rel: f64, rng: &mut R) -> Vector3<f64> {
     t + random_unit_vector(rng) * (rel * t.norm())
 }
 
@@ -188,17 +175,12 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         for _ in 0..200 {
             let q = random_unit_quaternion(&mut rng);
-            let uq =
-                UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+            let uq = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
             let r = rotation_from_quat(q);
             assert!((r - uq.to_rotation_matrix().into_inner()).norm() < 1e-14);
             let back = quat_from_rotation(&r);
             assert!(back[0] >= 0.0);
-            let d: f64 = back
-                .iter()
-                .zip(q.iter())
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
+            let d: f64 = back.iter().zip(q.iter()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
             assert!(d < 1e-13, "{q:?} -> {back:?}");
         }
     }
@@ -236,10 +218,7 @@ mod tests {
             let r = rotation_from_quat(random_unit_quaternion(&mut rng));
             let angle = k as f64 * 1.7;
             let rp = random_rotation_perturbation(&r, angle, &mut rng);
-            assert!(
-                (rotation_error_deg(&rp, &r) - angle).abs() < 1e-6,
-                "{angle}"
-            );
+            assert!((rotation_error_deg(&rp, &r) - angle).abs() < 1e-6, "{angle}");
             let t = Vector3::new(0.3, -2.0, 1.0);
             let tp = perturb_translation(&t, 0.1, &mut rng);
             assert!((translation_error_pct(&tp, &t) - 10.0).abs() < 1e-9);

@@ -30,9 +30,7 @@
 use crate::grps::Grps7;
 use nalgebra::SVector;
 use serde::{Deserialize, Serialize};
-use simhc::all_roots::{
-    solve_all_fast, solve_all_fast_via, AllRootsOptions, AllRootsResult, RealSolution, StartSystem,
-};
+use simhc::all_roots::{solve_all_fast, solve_all_fast_via, AllRootsOptions, AllRootsResult, RealSolution, StartSystem};
 use simhc::monodromy::{monodromy_solve, MonodromyOptions, SignFlip, StopReason, C};
 use simhc::tracker::{newton, NewtonOptions};
 use simhc::{simhc_problem, ParamDerivative, ProblemInfo};
@@ -165,20 +163,12 @@ fn pairs<const N: usize>(v: &SVector<C, N>) -> Vec<[f64; 2]> {
     v.iter().map(|z| [z.re, z.im]).collect()
 }
 
-fn from_pairs<const N: usize>(
-    v: &[[f64; 2]],
-    what: &str,
-) -> Result<SVector<C, N>, StartSystemError> {
+fn from_pairs<const N: usize>(v: &[[f64; 2]], what: &str) -> Result<SVector<C, N>, StartSystemError> {
     if v.len() != N {
-        return Err(StartSystemError::Format(format!(
-            "{what}: {} entries, expected {N}",
-            v.len()
-        )));
+        return Err(StartSystemError::Format(format!("{what}: {} entries, expected {N}", v.len())));
     }
     if !v.iter().flatten().all(|x| x.is_finite()) {
-        return Err(StartSystemError::Format(format!(
-            "{what}: non-finite entry"
-        )));
+        return Err(StartSystemError::Format(format!("{what}: non-finite entry")));
     }
     Ok(SVector::from_fn(|i, _| C::new(v[i][0], v[i][1])))
 }
@@ -197,29 +187,15 @@ impl StartSystemFile {
     }
 
     /// The start system with checked sizes.
-    pub fn start_system<const N: usize, const NP: usize>(
-        &self,
-    ) -> Result<StartSystem<N, NP>, StartSystemError> {
+    pub fn start_system<const N: usize, const NP: usize>(&self) -> Result<StartSystem<N, NP>, StartSystemError> {
         let params = from_pairs::<NP>(&self.params, "params")?;
-        let solutions = self
-            .solutions
-            .iter()
-            .enumerate()
-            .map(|(i, s)| from_pairs::<N>(s, &format!("solution {i}")))
-            .collect::<Result<Vec<_>, _>>()?;
+        let solutions =
+            self.solutions.iter().enumerate().map(|(i, s)| from_pairs::<N>(s, &format!("solution {i}"))).collect::<Result<Vec<_>, _>>()?;
         if solutions.len() != self.count {
-            return Err(StartSystemError::Format(format!(
-                "count {} but {} solutions",
-                self.count,
-                solutions.len()
-            )));
+            return Err(StartSystemError::Format(format!("count {} but {} solutions", self.count, solutions.len())));
         }
         let symmetry = (!self.symmetry.is_empty()).then(|| SignFlip::new(self.symmetry.clone()));
-        Ok(StartSystem {
-            params,
-            solutions,
-            symmetry,
-        })
+        Ok(StartSystem { params, solutions, symmetry })
     }
 }
 
@@ -357,10 +333,7 @@ pub enum Selection<'a, const N: usize> {
 }
 
 /// The best real solution of an all-roots result by a [`Selection`] rule.
-pub fn best_real_solution<const N: usize>(
-    result: &AllRootsResult<N>,
-    selection: Selection<'_, N>,
-) -> Option<RealSolution<N>> {
+pub fn best_real_solution<const N: usize>(result: &AllRootsResult<N>, selection: Selection<'_, N>) -> Option<RealSolution<N>> {
     match selection {
         Selection::ClosestTo(x) => result.closest_real(x).map(|(s, _)| *s),
         Selection::MinScore(f) => result.best_real_by(|s| f(&s.x)).copied(),
@@ -387,14 +360,7 @@ pub struct MonodromyConfig {
 
 impl Default for MonodromyConfig {
     fn default() -> Self {
-        Self {
-            seed: 1,
-            stall_loops: 5,
-            max_loops: 200,
-            parallel: false,
-            output: None,
-            notes: Vec::new(),
-        }
+        Self { seed: 1, stall_loops: 5, max_loops: 200, parallel: false, output: None, notes: Vec::new() }
     }
 }
 
@@ -433,8 +399,7 @@ impl std::fmt::Display for MonodromyReport {
         writeln!(
             f,
             "  {} loops (stop: {}, k = {}), {} paths tracked, {} failed, {:.2} s, max residual {:.1e}",
-            m.loops, m.stop, m.stall_loops, m.paths_tracked, m.paths_failed, m.seconds,
-            self.file.max_residual
+            m.loops, m.stop, m.stall_loops, m.paths_tracked, m.paths_failed, m.seconds, self.file.max_residual
         )?;
         write!(f, "  solutions after each loop: {:?}", m.history)?;
         if let Some(p) = &self.written {
@@ -465,11 +430,7 @@ where
     };
     let r = monodromy_solve::<P, N, NP>(&options)?;
     let fixed = simhc::homotopy::FixedSystem::<P, C, NP>::new(r.params);
-    let polish = NewtonOptions {
-        max_iterations: 5,
-        tolerance: 1e-15,
-        ..NewtonOptions::default()
-    };
+    let polish = NewtonOptions { max_iterations: 5, tolerance: 1e-15, ..NewtonOptions::default() };
     let mut solutions = Vec::with_capacity(r.solutions.len());
     let mut max_residual = 0.0f64;
     for x in &r.solutions {
@@ -498,10 +459,7 @@ where
         problem: P::NAME.to_string(),
         unknowns: P::UNKNOWN_NAMES.iter().map(|s| s.to_string()).collect(),
         parameter_layout: parameter_layout.to_string(),
-        symmetry: symmetry
-            .as_ref()
-            .map(|g| g.indices.clone())
-            .unwrap_or_default(),
+        symmetry: symmetry.as_ref().map(|g| g.indices.clone()).unwrap_or_default(),
         count: solutions.len(),
         max_residual,
         monodromy: MonodromyRecord {
@@ -520,10 +478,7 @@ where
     };
     let written = match &config.output {
         Some(path) => {
-            std::fs::write(path, file.to_json()).map_err(|source| StartSystemError::Io {
-                path: path.clone(),
-                source,
-            })?;
+            std::fs::write(path, file.to_json()).map_err(|source| StartSystemError::Io { path: path.clone(), source })?;
             Some(path.clone())
         }
         None => None,

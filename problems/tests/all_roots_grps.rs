@@ -10,9 +10,8 @@ use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::grps::{self, Grps7};
 use simhc_problems::metrics::{rotation_error_deg, rotation_from_quat};
 use simhc_problems::start_systems::{
-    best_real_solution, grps7_start, grps7_start_file, quaternion_sign, run_monodromy_grps7,
-    run_monodromy_upnp, solve_grps7, solve_upnp, upnp_lagrange, upnp_start, upnp_start_file,
-    MonodromyConfig, Selection, StartSystemFile, UpnpLagrange, GRPS7_SOLUTIONS, UPNP_SOLUTIONS,
+    best_real_solution, grps7_start, grps7_start_file, quaternion_sign, run_monodromy_grps7, run_monodromy_upnp, solve_grps7, solve_upnp,
+    upnp_lagrange, upnp_start, upnp_start_file, MonodromyConfig, Selection, StartSystemFile, UpnpLagrange, GRPS7_SOLUTIONS, UPNP_SOLUTIONS,
 };
 use simhc_problems::upnp::geometry::upnp_cost_matrix;
 use simhc_problems::upnp::scene::UpnpSceneConfig;
@@ -38,10 +37,7 @@ where
         assert_eq!(g.canonical(x), *x, "stored representative is canonical");
     }
     println!("{count} solutions: max residual {worst:e}, smallest sigma_min(J) {smallest_sigma:e}");
-    assert!(
-        worst < 1e-8,
-        "start solutions must satisfy F to 1e-8: {worst:e}"
-    );
+    assert!(worst < 1e-8, "start solutions must satisfy F to 1e-8: {worst:e}");
     assert!(smallest_sigma > 1e-8, "start solutions are regular");
     assert!(start.max_residual::<P>() < 1e-8);
     for a in 0..count {
@@ -76,10 +72,7 @@ fn start_system_file_round_trips_and_rejects_bad_shapes() {
     assert_eq!(start.params, upnp_start().params);
     assert_eq!(start.solutions, upnp_start().solutions);
     assert!(file.start_system::<8, 66>().is_err(), "wrong unknown count");
-    assert!(
-        file.start_system::<5, 84>().is_err(),
-        "wrong parameter count"
-    );
+    assert!(file.start_system::<5, 84>().is_err(), "wrong parameter count");
     let mut short = file.clone();
     short.solutions.pop();
     assert!(short.start_system::<5, 66>().is_err(), "count mismatch");
@@ -88,10 +81,7 @@ fn start_system_file_round_trips_and_rejects_bad_shapes() {
 
 #[test]
 fn all_roots_contains_the_ground_truth_on_noise_free_grps7() {
-    let config = GrpsSceneConfig {
-        points: 7,
-        ..Default::default()
-    };
+    let config = GrpsSceneConfig { points: 7, ..Default::default() };
     let options = AllRootsOptions::default();
     for seed in 0..6 {
         let scene = config.sample_seeded(seed).unwrap();
@@ -108,15 +98,8 @@ fn all_roots_contains_the_ground_truth_on_noise_free_grps7() {
             res.retracked,
             res.duplicates
         );
-        assert!(
-            d < 1e-6,
-            "seed {seed}: ground truth not among the real solutions ({d:e})"
-        );
-        assert!(
-            best.residual < 1e-10,
-            "seed {seed}: residual {:e}",
-            best.residual
-        );
+        assert!(d < 1e-6, "seed {seed}: ground truth not among the real solutions ({d:e})");
+        assert!(best.residual < 1e-10, "seed {seed}: residual {:e}", best.residual);
         assert!(best.x[0] >= 0.0, "canonical sign");
         let picked = best_real_solution(&res, Selection::ClosestTo(&gt)).unwrap();
         assert_eq!(picked, *best);
@@ -124,38 +107,19 @@ fn all_roots_contains_the_ground_truth_on_noise_free_grps7() {
         let mut f = SVector::<f64, 8>::zeros();
         for s in &res.real {
             Grps7::residual(&s.x, &p, &mut f);
-            assert!(
-                f.amax() < 1e-8 * (1.0 + s.x.amax().powi(3)),
-                "seed {seed}: {:e}",
-                f.amax()
-            );
+            assert!(f.amax() < 1e-8 * (1.0 + s.x.amax().powi(3)), "seed {seed}: {:e}", f.amax());
         }
         assert!(res.real.windows(2).all(|w| w[0].residual <= w[1].residual));
-        assert!(
-            res.finite() >= 138,
-            "seed {seed}: only {} finite end points",
-            res.finite()
-        );
+        assert!(res.finite() >= 138, "seed {seed}: only {} finite end points", res.finite());
     }
 }
 
 #[test]
 fn all_roots_in_parallel_gives_the_same_solutions() {
-    let scene = GrpsSceneConfig {
-        points: 7,
-        ..Default::default()
-    }
-    .sample_seeded(42)
-    .unwrap();
+    let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(42).unwrap();
     let p = Grps7::params(&grps::rows_of::<7>(&scene.correspondences).unwrap());
     let seq = solve_grps7(&p, &AllRootsOptions::default());
-    let par = solve_grps7(
-        &p,
-        &AllRootsOptions {
-            parallel: true,
-            ..Default::default()
-        },
-    );
+    let par = solve_grps7(&p, &AllRootsOptions { parallel: true, ..Default::default() });
     assert_eq!(seq.real, par.real);
     assert_eq!(seq.failed, par.failed);
 }
@@ -163,12 +127,7 @@ fn all_roots_in_parallel_gives_the_same_solutions() {
 /// The UPnP-Lagrange parameters are the UPnP parameters (`M`'s upper triangle row by row).
 #[test]
 fn upnp_lagrange_shares_the_upnp_parameter_layout() {
-    let scene = UpnpSceneConfig {
-        noise_px: 0.0,
-        ..Default::default()
-    }
-    .sample_seeded(5)
-    .unwrap();
+    let scene = UpnpSceneConfig { noise_px: 0.0, ..Default::default() }.sample_seeded(5).unwrap();
     let m = upnp_cost_matrix(&scene.correspondences).unwrap();
     let mut globals = upnp_lagrange::Globals::default();
     for i in 0..11 {
@@ -190,29 +149,19 @@ fn upnp_lagrange_shares_the_upnp_parameter_layout() {
     let x = SVector::<f64, 5>::from([q[0], q[1], q[2], q[3], 4.0 * e]);
     let mut fl = SVector::<f64, 5>::zeros();
     UpnpLagrange::residual(&x, &p, &mut fl);
-    println!(
-        "Upnp residual {:e}, Lagrange residual {:e}",
-        fu.amax(),
-        fl.amax()
-    );
+    println!("Upnp residual {:e}, Lagrange residual {:e}", fu.amax(), fl.amax());
     assert!(fu.amax() < 1e-9 && fl.amax() < 1e-9);
 }
 
 #[test]
 fn all_roots_upnp_finds_the_ground_truth_and_the_global_minimum() {
     for (seed, noise) in [(1u64, 0.0), (2, 0.0), (3, 2.0), (4, 2.0)] {
-        let scene = UpnpSceneConfig {
-            noise_px: noise,
-            ..Default::default()
-        }
-        .sample_seeded(seed)
-        .unwrap();
+        let scene = UpnpSceneConfig { noise_px: noise, ..Default::default() }.sample_seeded(seed).unwrap();
         let m = upnp_cost_matrix(&scene.correspondences).unwrap();
         let res = solve_upnp(&upnp::params_of(&m), &AllRootsOptions::default());
         // The global minimum of the cost is the real critical point with the smallest
         // lambda = 4 E.
-        let by_cost =
-            best_real_solution(&res, Selection::MinScore(&|x: &SVector<f64, 5>| x[4])).unwrap();
+        let by_cost = best_real_solution(&res, Selection::MinScore(&|x: &SVector<f64, 5>| x[4])).unwrap();
         let r = rotation_from_quat([by_cost.x[0], by_cost.x[1], by_cost.x[2], by_cost.x[3]]);
         let err = rotation_error_deg(&r, &scene.rotation);
         println!(
@@ -231,11 +180,7 @@ fn all_roots_upnp_finds_the_ground_truth_and_the_global_minimum() {
 
 #[test]
 fn upnp_monodromy_finds_40_solutions() {
-    let report = run_monodromy_upnp(&MonodromyConfig {
-        seed: 9,
-        ..Default::default()
-    })
-    .unwrap();
+    let report = run_monodromy_upnp(&MonodromyConfig { seed: 9, ..Default::default() }).unwrap();
     println!("{report}");
     assert_eq!(report.count, UPNP_SOLUTIONS);
     assert_eq!(report.vectors, 80);
@@ -251,11 +196,7 @@ fn upnp_monodromy_finds_40_solutions() {
 #[ignore]
 fn grps7_monodromy_finds_140_solutions() {
     for seed in [2, 3] {
-        let report = run_monodromy_grps7(&MonodromyConfig {
-            seed,
-            ..Default::default()
-        })
-        .unwrap();
+        let report = run_monodromy_grps7(&MonodromyConfig { seed, ..Default::default() }).unwrap();
         println!("{report}");
         assert_eq!(report.count, GRPS7_SOLUTIONS);
         assert_eq!(report.vectors, 280);
@@ -326,18 +267,16 @@ fn batch_tracking_agrees_with_one_path_at_a_time() {
         let scene = GrpsSceneConfig { points: 7, ..Default::default() }.sample_seeded(seed).unwrap();
         let target = Grps7::params(&grps::rows_of::<7>(&scene.correspondences).unwrap());
         let aligned = grps7_aligned_target(&start.params, &target);
-        let h = CoefficientParameterHomotopy::<Grps7, 84, { Grps7::NC }>::new::<8>(ParameterHomotopy::new(
-            start.params,
-            aligned,
-        ))
-        .expect("GRPS7 coefficients are polynomial along the segment");
-        let coefficients = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly())
-            .expect("GRPS7 has path-lane code");
+        let h = CoefficientParameterHomotopy::<Grps7, 84, { Grps7::NC }>::new::<8>(ParameterHomotopy::new(start.params, aligned))
+            .expect("GRPS7 coefficients are polynomial along the segment");
+        let coefficients = LaneSystem::<Grps7, 8, { Grps7::NC }>::new::<84>(h.coefficient_poly()).expect("GRPS7 has path-lane code");
         let parameters = LaneSystem::<Grps7, 8, { Grps7::NC }>::from_parameter_path::<84>(&h.parameter_path().param_poly())
             .expect("GRPS7 has a parameter row kernel");
         let all: Vec<usize> = (0..start.solutions.len()).collect();
         let one_path: Vec<_> = start.solutions.iter().map(|x0| track(&h, x0, &opts)).collect();
-        for (&isa, (kernel, system)) in isas.iter().flat_map(|isa| [("coefficients", &coefficients), ("parameters", &parameters)].map(|k| (isa, k))) {
+        for (&isa, (kernel, system)) in
+            isas.iter().flat_map(|isa| [("coefficients", &coefficients), ("parameters", &parameters)].map(|k| (isa, k)))
+        {
             let run = |idx: &[usize]| {
                 track_batch_with::<Grps7, _, 8, 84, { Grps7::NC }>(isa, system, &h, &start.solutions, idx, &opts)
                     .expect("Heun + adaptive is supported on an available instruction set")
@@ -434,11 +373,8 @@ fn batch_tracker_reports_bad_input_per_path() {
             self.2.push((job, error));
         }
     }
-    let jobs = vec![
-        PathJob { id: 0, start: 0, settings: 1 },
-        PathJob { id: 1, start: 2, settings: 0 },
-        PathJob { id: 2, start: 5, settings: 0 },
-    ];
+    let jobs =
+        vec![PathJob { id: 0, start: 0, settings: 1 }, PathJob { id: 1, start: 2, settings: 0 }, PathJob { id: 2, start: 5, settings: 0 }];
     let mut queue = Jobs(jobs.clone(), Vec::new(), Vec::new());
     let isa = LaneIsa::detect();
     assert_eq!(track_batch_queue::<Grps7, _, _, 8, 84, { Grps7::NC }>(isa, &system, &h, &starts, &[opts], &mut queue), Ok(()));
@@ -480,12 +416,11 @@ fn parameter_rows_follow_a_bent_path() {
     let h = ParameterHomotopy::<Grps7, C, 84>::with_bend(start.params, aligned, bend);
     let poly = h.param_poly();
     assert_eq!(poly.len(), 3, "a bent path is quadratic in t");
-    let system = LaneSystem::<Grps7, 8, { Grps7::NC }>::from_parameter_path::<84>(&poly)
-        .expect("GRPS7 has a parameter row kernel");
+    let system = LaneSystem::<Grps7, 8, { Grps7::NC }>::from_parameter_path::<84>(&poly).expect("GRPS7 has a parameter row kernel");
     let opts = all_roots_tracker();
     let idx: Vec<usize> = (0..40).collect();
-    let batch = track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &idx, &opts)
-        .expect("Heun + adaptive is supported");
+    let batch =
+        track_batch::<Grps7, _, 8, 84, { Grps7::NC }>(&system, &h, &start.solutions, &idx, &opts).expect("Heun + adaptive is supported");
     let (mut both, mut same) = (0, 0);
     for (&i, b) in idx.iter().zip(&batch) {
         if let (Ok(b), Ok(a)) = (b, track(&h, &start.solutions[i], &opts)) {

@@ -6,8 +6,7 @@ use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc_problems::grps::geometry::{
-    grps_residual_direct, project_first_view, simulate_first_view, simulate_first_view_in_place,
-    triangulate_depths, validate, GrpsError,
+    grps_residual_direct, project_first_view, simulate_first_view, simulate_first_view_in_place, triangulate_depths, validate, GrpsError,
 };
 use simhc_problems::grps::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
 use simhc_problems::metrics::{perturb_scale, perturb_translation, random_rotation_perturbation};
@@ -20,20 +19,9 @@ fn rng(seed: u64) -> ChaCha8Rng {
 fn configs() -> Vec<GrpsSceneConfig> {
     vec![
         GrpsSceneConfig::default(),
-        GrpsSceneConfig {
-            points: 7,
-            ..Default::default()
-        },
-        GrpsSceneConfig {
-            points: 20,
-            cameras_per_view: 5,
-            ..Default::default()
-        },
-        GrpsSceneConfig {
-            points: 9,
-            cameras_per_view: 2,
-            ..Default::default()
-        },
+        GrpsSceneConfig { points: 7, ..Default::default() },
+        GrpsSceneConfig { points: 20, cameras_per_view: 5, ..Default::default() },
+        GrpsSceneConfig { points: 9, cameras_per_view: 2, ..Default::default() },
     ]
 }
 
@@ -46,8 +34,7 @@ fn term_scale(t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> f64 {
 fn constraint_skew(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> f64 {
     let skew = |v: &Vector3<f64>| Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0);
     let rf2 = r * c.fp;
-    t.dot(&c.f.cross(&rf2)) - s * (c.f.transpose() * r * skew(&c.vp) * c.fp)[0]
-        + (c.f.transpose() * skew(&c.v) * rf2)[0]
+    t.dot(&c.f.cross(&rf2)) - s * (c.f.transpose() * r * skew(&c.vp) * c.fp)[0] + (c.f.transpose() * skew(&c.v) * rf2)[0]
 }
 
 #[test]
@@ -67,17 +54,12 @@ fn noise_free_scenes_satisfy_the_model() {
                 let res = grps_residual_direct(&r, &t, s, c);
                 worst = worst.max(res.abs());
                 assert!(res.abs() <= 1e-10, "seed {seed}: residual {res:e}");
-                assert!(
-                    (res - constraint_skew(&r, &t, s, c)).abs() <= 1e-12 * term_scale(&t, s, c)
-                );
+                assert!((res - constraint_skew(&r, &t, s, c)).abs() <= 1e-12 * term_scale(&t, s, c));
                 // alpha f + v = R (alpha' f' + s v') + t with positive depths.
                 let (a, a2) = triangulate_depths(&r, &t, s, c).unwrap();
                 assert!(a > 0.0 && a2 > 0.0, "seed {seed}: depths {a} {a2}");
                 let gap = c.f * a + c.v - (r * (c.fp * a2 + c.vp * s) + t);
-                assert!(
-                    gap.norm() <= 1e-10 * (1.0 + a + a2),
-                    "seed {seed}: gap {gap}"
-                );
+                assert!(gap.norm() <= 1e-10 * (1.0 + a + a2), "seed {seed}: gap {gap}");
                 // Offsets in [-1, 1]³ of each view; round robin over cameras in both views.
                 assert!(c.v.amax() <= 1.0 && c.vp.amax() <= 1.0);
                 let first = &scene.correspondences[i % cfg.cameras_per_view];
@@ -106,20 +88,12 @@ fn ground_truth_maps_view2_into_view1() {
             assert!((r * (y2 * s) + t - y1).norm() <= 1e-9 * (1.0 + y1.norm()));
         }
         // A wrong scale or translation breaks the constraint (the model is not trivially satisfied).
-        let bad = scene
-            .correspondences
-            .iter()
-            .map(|c| grps_residual_direct(&r, &(t * 1.1), s * 0.9, c).abs());
+        let bad = scene.correspondences.iter().map(|c| grps_residual_direct(&r, &(t * 1.1), s * 0.9, c).abs());
         assert!(bad.fold(0.0, f64::max) > 1e-6);
     }
 }
 
-fn perturbed_pose<R: Rng>(
-    scene: &GrpsScene,
-    theta_deg: f64,
-    rho: f64,
-    rng: &mut R,
-) -> (Matrix3<f64>, Vector3<f64>, f64) {
+fn perturbed_pose<R: Rng>(scene: &GrpsScene, theta_deg: f64, rho: f64, rng: &mut R) -> (Matrix3<f64>, Vector3<f64>, f64) {
     (
         random_rotation_perturbation(&scene.rotation, theta_deg, rng),
         perturb_translation(&scene.translation, rho, rng),
@@ -135,21 +109,13 @@ fn geometric_simulator_is_exact_for_perturbed_poses() {
         let (mut flipped, mut behind2, mut total, mut worst) = (0usize, 0usize, 0usize, 0.0f64);
         for trial in 0..300 {
             let noisy = trial % 2 == 1;
-            let cfg = GrpsSceneConfig {
-                noise_px: if noisy { 1.0 } else { 0.0 },
-                ..cfg
-            };
+            let cfg = GrpsSceneConfig { noise_px: if noisy { 1.0 } else { 0.0 }, ..cfg };
             let scene = cfg.sample(&mut rng).unwrap();
             let theta = [5.0, 10.0, 20.0, 30.0, 45.0][trial % 5];
             let (r, t, s) = perturbed_pose(&scene, theta, 0.1, &mut rng);
             let sim = simulate_first_view(&r, &t, s, &scene.correspondences).unwrap();
             assert_eq!(sim.correspondences.len(), scene.correspondences.len());
-            for ((c, orig), info) in sim
-                .correspondences
-                .iter()
-                .zip(&scene.correspondences)
-                .zip(&sim.info)
-            {
+            for ((c, orig), info) in sim.correspondences.iter().zip(&scene.correspondences).zip(&sim.info) {
                 let res = grps_residual_direct(&r, &t, s, c);
                 let rel = res.abs() / term_scale(&t, s, c);
                 worst = worst.max(rel);
@@ -178,29 +144,12 @@ fn simulator_at_the_truth_returns_the_measurements() {
     let mut rng = rng(1300);
     for _ in 0..100 {
         let scene = GrpsSceneConfig::default().sample(&mut rng).unwrap();
-        let sim = simulate_first_view(
-            &scene.rotation,
-            &scene.translation,
-            scene.scale,
-            &scene.correspondences,
-        )
-        .unwrap();
-        for ((a, b), info) in sim
-            .correspondences
-            .iter()
-            .zip(&scene.correspondences)
-            .zip(&sim.info)
-        {
+        let sim = simulate_first_view(&scene.rotation, &scene.translation, scene.scale, &scene.correspondences).unwrap();
+        for ((a, b), info) in sim.correspondences.iter().zip(&scene.correspondences).zip(&sim.info) {
             assert!((a.f - b.f).norm() <= 1e-9, "{} vs {}", a.f, b.f);
             assert!(!info.behind_first && !info.behind_second && !info.parallel);
         }
-        let proj = project_first_view(
-            &scene.rotation,
-            &scene.translation,
-            scene.scale,
-            &scene.correspondences,
-        )
-        .unwrap();
+        let proj = project_first_view(&scene.rotation, &scene.translation, scene.scale, &scene.correspondences).unwrap();
         for (a, b) in proj.iter().zip(&scene.correspondences) {
             assert!((a.f - b.f).norm() <= 1e-9);
         }
@@ -212,12 +161,7 @@ fn minimal_angle_simulator_is_exact_and_closest() {
     let mut rng = rng(1400);
     let mut buf = Vec::new();
     for trial in 0..200 {
-        let scene = GrpsSceneConfig {
-            noise_px: 0.5,
-            ..Default::default()
-        }
-        .sample(&mut rng)
-        .unwrap();
+        let scene = GrpsSceneConfig { noise_px: 0.5, ..Default::default() }.sample(&mut rng).unwrap();
         let (r, t, s) = perturbed_pose(&scene, 5.0 + (trial % 9) as f64 * 5.0, 0.1, &mut rng);
         let proj = project_first_view(&r, &t, s, &scene.correspondences).unwrap();
         let mut geo = scene.correspondences.clone();
@@ -236,16 +180,8 @@ fn degenerate_camera_configurations() {
     let seed = 1500;
     println!("seed {seed}");
     // One camera per view: a single camera pair.
-    let single = GrpsSceneConfig {
-        cameras_per_view: 1,
-        ..Default::default()
-    }
-    .sample_seeded(seed)
-    .unwrap();
-    assert_eq!(
-        validate(&single.correspondences),
-        Err(GrpsError::SingleCameraPair)
-    );
+    let single = GrpsSceneConfig { cameras_per_view: 1, ..Default::default() }.sample_seeded(seed).unwrap();
+    assert_eq!(validate(&single.correspondences), Err(GrpsError::SingleCameraPair));
     // One central view: the scale is unobservable, as the families in the docs show.
     let scene = GrpsSceneConfig::default().sample_seeded(seed).unwrap();
     let (r, t, s) = (scene.rotation, scene.translation, scene.scale);
@@ -262,10 +198,7 @@ fn degenerate_camera_configurations() {
         let t_l = v0 + (t - v0) * l;
         for c in &central1 {
             assert!(grps_residual_direct(&r, &t, s, c).abs() <= 1e-10);
-            assert!(
-                grps_residual_direct(&r, &t_l, l * s, c).abs() <= 1e-9,
-                "lambda {l}"
-            );
+            assert!(grps_residual_direct(&r, &t_l, l * s, c).abs() <= 1e-9, "lambda {l}");
         }
     }
     let mut central2 = scene.correspondences.clone();
@@ -280,10 +213,7 @@ fn degenerate_camera_configurations() {
         let t2 = t + r * w0 * (s - s2);
         for c in &central2 {
             assert!(grps_residual_direct(&r, &t, s, c).abs() <= 1e-10);
-            assert!(
-                grps_residual_direct(&r, &t2, s2, c).abs() <= 1e-9,
-                "s2 {s2}"
-            );
+            assert!(grps_residual_direct(&r, &t2, s2, c).abs() <= 1e-9, "s2 {s2}");
         }
     }
 }
@@ -293,60 +223,27 @@ fn bad_input_gives_typed_errors() {
     let scene = GrpsSceneConfig::default().sample_seeded(1600).unwrap();
     let (r, t, s) = (scene.rotation, scene.translation, scene.scale);
     let good = scene.correspondences;
-    assert_eq!(
-        validate(&good[..6]),
-        Err(GrpsError::TooFewCorrespondences { got: 6, need: 7 })
-    );
-    assert_eq!(
-        validate(&[]),
-        Err(GrpsError::TooFewCorrespondences { got: 0, need: 7 })
-    );
+    assert_eq!(validate(&good[..6]), Err(GrpsError::TooFewCorrespondences { got: 6, need: 7 }));
+    assert_eq!(validate(&[]), Err(GrpsError::TooFewCorrespondences { got: 0, need: 7 }));
     assert_eq!(validate(&good[..7]), Ok(()));
     let mut bad = good.clone();
     bad[3].vp.x = f64::NAN;
     assert_eq!(validate(&bad), Err(GrpsError::NonFinite { index: 3 }));
-    assert_eq!(
-        simulate_first_view(&r, &t, s, &bad).unwrap_err(),
-        GrpsError::NonFinite { index: 3 }
-    );
+    assert_eq!(simulate_first_view(&r, &t, s, &bad).unwrap_err(), GrpsError::NonFinite { index: 3 });
     let mut bad = good.clone();
     bad[6].fp = Vector3::zeros();
     assert_eq!(validate(&bad), Err(GrpsError::ZeroBearing { index: 6 }));
-    assert_eq!(
-        project_first_view(&r, &t, s, &bad).unwrap_err(),
-        GrpsError::ZeroBearing { index: 6 }
-    );
+    assert_eq!(project_first_view(&r, &t, s, &bad).unwrap_err(), GrpsError::ZeroBearing { index: 6 });
     let mut bad = good.clone();
     bad[1].f = Vector3::new(1e-13, 0.0, 0.0);
     assert_eq!(validate(&bad), Err(GrpsError::ZeroBearing { index: 1 }));
     let nan = GrpsError::NonFinite { index: usize::MAX };
-    assert_eq!(
-        simulate_first_view(&r, &t, f64::NAN, &good).unwrap_err(),
-        nan
-    );
-    assert_eq!(
-        simulate_first_view(&(r * f64::INFINITY), &t, s, &good).unwrap_err(),
-        nan
-    );
+    assert_eq!(simulate_first_view(&r, &t, f64::NAN, &good).unwrap_err(), nan);
+    assert_eq!(simulate_first_view(&(r * f64::INFINITY), &t, s, &good).unwrap_err(), nan);
     // Bad sampler settings.
-    assert!(GrpsSceneConfig {
-        cameras_per_view: 0,
-        ..Default::default()
-    }
-    .sample_seeded(1)
-    .is_err());
-    assert!(GrpsSceneConfig {
-        points: 0,
-        ..Default::default()
-    }
-    .sample_seeded(1)
-    .is_err());
-    assert!(GrpsSceneConfig {
-        noise_px: f64::NAN,
-        ..Default::default()
-    }
-    .sample_seeded(1)
-    .is_err());
+    assert!(GrpsSceneConfig { cameras_per_view: 0, ..Default::default() }.sample_seeded(1).is_err());
+    assert!(GrpsSceneConfig { points: 0, ..Default::default() }.sample_seeded(1).is_err());
+    assert!(GrpsSceneConfig { noise_px: f64::NAN, ..Default::default() }.sample_seeded(1).is_err());
 }
 
 #[test]
@@ -367,24 +264,13 @@ fn parallel_rays_fall_back_to_projection() {
 
 #[test]
 fn sampler_is_seeded_and_noise_is_bounded() {
-    let cfg = GrpsSceneConfig {
-        noise_px: 1.0,
-        ..Default::default()
-    };
+    let cfg = GrpsSceneConfig { noise_px: 1.0, ..Default::default() };
     let seed = 1800;
     println!("seed {seed}");
     let a = cfg.sample_seeded(seed).unwrap();
     assert_eq!(a, cfg.sample_seeded(seed).unwrap());
-    let clean = GrpsSceneConfig {
-        noise_px: 0.0,
-        ..cfg
-    }
-    .sample_seeded(seed)
-    .unwrap();
-    assert_eq!(
-        (a.rotation, a.translation, a.scale),
-        (clean.rotation, clean.translation, clean.scale)
-    );
+    let clean = GrpsSceneConfig { noise_px: 0.0, ..cfg }.sample_seeded(seed).unwrap();
+    assert_eq!((a.rotation, a.translation, a.scale), (clean.rotation, clean.translation, clean.scale));
     let bound = (cfg.noise_px / cfg.focal_px).atan() * (1.0 + 1e-9);
     let angle = |x: &Vector3<f64>, y: &Vector3<f64>| x.cross(y).norm().atan2(x.dot(y));
     for (n, c) in a.correspondences.iter().zip(&clean.correspondences) {

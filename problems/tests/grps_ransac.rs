@@ -33,7 +33,11 @@ fn ransac_recovers_the_pose_with_30_percent_outliers() {
         let et = translation_error_pct(&r.model.translation, &scene.translation);
         let es = scale_error_pct(r.model.scale, scene.scale);
         let true_inliers = r.inliers.iter().filter(|&&i| !outlier[i]).count();
-        println!("  E_R {er:.3} deg, E_t {et:.2} %, E_s {es:.2} %, {} inliers ({true_inliers} true), {} iterations", r.inliers.len(), r.iterations);
+        println!(
+            "  E_R {er:.3} deg, E_t {et:.2} %, E_s {es:.2} %, {} inliers ({true_inliers} true), {} iterations",
+            r.inliers.len(),
+            r.iterations
+        );
         if er < 2.0 {
             assert!(true_inliers >= 120, "most of the 140 inliers are found");
             recovered += 1;

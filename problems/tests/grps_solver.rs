@@ -109,10 +109,7 @@ fn bad_input_gets_typed_errors() {
     let solver = GrpsSolver::new().expect("shipped weights load");
     let scene = GrpsSceneConfig::default().sample_seeded(3).expect("valid config");
     let c = &scene.correspondences;
-    assert_eq!(
-        solver.solve(&c[..6]).unwrap_err(),
-        GrpsSolveError::Input(GrpsError::TooFewCorrespondences { got: 6, need: 7 })
-    );
+    assert_eq!(solver.solve(&c[..6]).unwrap_err(), GrpsSolveError::Input(GrpsError::TooFewCorrespondences { got: 6, need: 7 }));
     assert!(solver.solve(&[]).is_err());
 
     let mut nan = c.clone();

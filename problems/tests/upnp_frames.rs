@@ -3,9 +3,9 @@
 
 use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
+use rand::SeedableRng;
 use simhc_problems::upnp::scene::{random_rotation, PointBox, UpnpScene, UpnpSceneConfig};
 use simhc_problems::upnp::solver::{UpnpPose, UpnpSolver};
-use rand::SeedableRng;
 
 /// A rigid frame change `x -> rotation x + translation`.
 type Rigid = (Matrix3<f64>, Vector3<f64>);

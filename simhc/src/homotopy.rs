@@ -41,13 +41,7 @@ use std::marker::PhantomData;
 /// them and reports [`crate::tracker::TrackError::NonFinite`]).
 pub trait Homotopy<S: Scalar, const NX: usize, const NF: usize> {
     /// `H(x, t)` and `J_x = dH/dx (x, t)`.
-    fn evaluate(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        h: &mut SVector<S, NF>,
-        jx: &mut SMatrix<S, NF, NX>,
-    );
+    fn evaluate(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>, jx: &mut SMatrix<S, NF, NX>);
 
     /// `dH/dt (x, t)`.
     fn dt(&self, x: &SVector<S, NX>, t: f64, dh: &mut SVector<S, NF>);
@@ -62,13 +56,7 @@ pub trait Homotopy<S: Scalar, const NX: usize, const NF: usize> {
     /// `J_x` and `dH/dt` at once: what a predictor stage needs. The default calls
     /// [`Homotopy::evaluate`] and [`Homotopy::dt`]; override to share subexpressions.
     #[inline]
-    fn jacobian_dt(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        jx: &mut SMatrix<S, NF, NX>,
-        dh: &mut SVector<S, NF>,
-    ) {
+    fn jacobian_dt(&self, x: &SVector<S, NX>, t: f64, jx: &mut SMatrix<S, NF, NX>, dh: &mut SVector<S, NF>) {
         let mut h = SVector::<S, NF>::zeros();
         self.evaluate(x, t, &mut h, jx);
         self.dt(x, t, dh);
@@ -100,13 +88,7 @@ pub fn max_modulus<S: Scalar, const N: usize>(v: &SVector<S, N>) -> f64 {
 
 /// `out = a * u + b * v`, element-wise over fixed-size matrices (no temporaries).
 #[inline]
-fn lincomb<S: Scalar, const R: usize, const C: usize>(
-    out: &mut SMatrix<S, R, C>,
-    a: S,
-    u: &SMatrix<S, R, C>,
-    b: S,
-    v: &SMatrix<S, R, C>,
-) {
+fn lincomb<S: Scalar, const R: usize, const C: usize>(out: &mut SMatrix<S, R, C>, a: S, u: &SMatrix<S, R, C>, b: S, v: &SMatrix<S, R, C>) {
     for ((o, &ui), &vi) in out.iter_mut().zip(u.iter()).zip(v.iter()) {
         *o = a * ui + b * vi;
     }
@@ -121,10 +103,7 @@ pub fn to_complex<const N: usize>(v: &SVector<f64, N>) -> SVector<Complex<f64>, 
 /// The real part of `v` if every imaginary part is at most `tol * max(1, |v_i|)`, else `None`:
 /// decides whether a complex end point is a real solution.
 #[inline]
-pub fn real_if_close<const N: usize>(
-    v: &SVector<Complex<f64>, N>,
-    tol: f64,
-) -> Option<SVector<f64, N>> {
+pub fn real_if_close<const N: usize>(v: &SVector<Complex<f64>, N>, tol: f64) -> Option<SVector<f64, N>> {
     if v.iter().all(|z| z.im.abs() <= tol * z.norm().max(1.0)) {
         Some(v.map(|z| z.re))
     } else {
@@ -197,10 +176,7 @@ pub struct CoefficientLine<P, S: Scalar, const NP: usize, const NC: usize> {
 
 impl<P, S: Scalar, const NP: usize, const NC: usize> CoefficientLine<P, S, NP, NC> {
     /// The line from `F(.; p0)` to `F(.; p1)`.
-    pub fn new<const NX: usize, const NF: usize>(
-        p0: &SVector<S, NP>,
-        p1: &SVector<S, NP>,
-    ) -> Self
+    pub fn new<const NX: usize, const NF: usize>(p0: &SVector<S, NP>, p1: &SVector<S, NP>) -> Self
     where
         P: CoefficientForm<NX, NF, NP, NC>,
     {
@@ -219,20 +195,13 @@ impl<P, S: Scalar, const NP: usize, const NC: usize> CoefficientLine<P, S, NP, N
     }
 }
 
-impl<P, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize> Homotopy<S, NX, NF>
-    for CoefficientLine<P, S, NP, NC>
+impl<P, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize> Homotopy<S, NX, NF> for CoefficientLine<P, S, NP, NC>
 where
     P: CoefficientForm<NX, NF, NP, NC>,
     S: Scalar,
 {
     #[inline]
-    fn evaluate(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        h: &mut SVector<S, NF>,
-        jx: &mut SMatrix<S, NF, NX>,
-    ) {
+    fn evaluate(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>, jx: &mut SMatrix<S, NF, NX>) {
         P::residual_jacobian_coeffs(x, &self.at(t), h, jx);
     }
 
@@ -247,13 +216,7 @@ where
     }
 
     #[inline]
-    fn jacobian_dt(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        jx: &mut SMatrix<S, NF, NX>,
-        dh: &mut SVector<S, NF>,
-    ) {
+    fn jacobian_dt(&self, x: &SVector<S, NX>, t: f64, jx: &mut SMatrix<S, NF, NX>, dh: &mut SVector<S, NF>) {
         let mut h = SVector::<S, NF>::zeros();
         P::residual_jacobian_coeffs(x, &self.at(t), &mut h, jx);
         P::coefficient_part(x, &self.dc, dh);
@@ -329,21 +292,14 @@ impl<G, F, S: Scalar, const NPG: usize, const NPF: usize> GammaTrick<G, F, S, NP
     }
 }
 
-impl<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize>
-    Homotopy<S, NX, NF> for GammaTrick<G, F, S, NPG, NPF>
+impl<G, F, S, const NX: usize, const NF: usize, const NPG: usize, const NPF: usize> Homotopy<S, NX, NF> for GammaTrick<G, F, S, NPG, NPF>
 where
     G: Problem<NX, NF, NPG>,
     F: Problem<NX, NF, NPF>,
     S: Scalar,
 {
     #[inline]
-    fn evaluate(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        h: &mut SVector<S, NF>,
-        jx: &mut SMatrix<S, NF, NX>,
-    ) {
+    fn evaluate(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>, jx: &mut SMatrix<S, NF, NX>) {
         let mut j0 = SMatrix::<S, NF, NX>::zeros();
         let mut j1 = SMatrix::<S, NF, NX>::zeros();
         let (f0, f1) = self.both(x, Some((&mut j0, &mut j1)));
@@ -366,13 +322,7 @@ where
     }
 
     #[inline]
-    fn jacobian_dt(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        jx: &mut SMatrix<S, NF, NX>,
-        dh: &mut SVector<S, NF>,
-    ) {
+    fn jacobian_dt(&self, x: &SVector<S, NX>, t: f64, jx: &mut SMatrix<S, NF, NX>, dh: &mut SVector<S, NF>) {
         let mut j0 = SMatrix::<S, NF, NX>::zeros();
         let mut j1 = SMatrix::<S, NF, NX>::zeros();
         let (f0, f1) = self.both(x, Some((&mut j0, &mut j1)));
@@ -478,12 +428,7 @@ impl<P, const NP: usize> ParameterHomotopy<P, Complex<f64>, NP> {
     /// parameters are real, so a real start solution is tracked in complex arithmetic and the
     /// end point of a real target root comes back real; in between the path avoids the real
     /// folds (where two real roots meet and a real path turns back) with probability one.
-    pub fn with_complex_detour(
-        p0: &SVector<f64, NP>,
-        p1: &SVector<f64, NP>,
-        g: f64,
-        seed: u64,
-    ) -> Self {
+    pub fn with_complex_detour(p0: &SVector<f64, NP>, p1: &SVector<f64, NP>, g: f64, seed: u64) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut d = SVector::<f64, NP>::zeros();
         for e in d.iter_mut() {
@@ -498,20 +443,13 @@ impl<P, const NP: usize> ParameterHomotopy<P, Complex<f64>, NP> {
     }
 }
 
-impl<P, S, const NX: usize, const NF: usize, const NP: usize> Homotopy<S, NX, NF>
-    for ParameterHomotopy<P, S, NP>
+impl<P, S, const NX: usize, const NF: usize, const NP: usize> Homotopy<S, NX, NF> for ParameterHomotopy<P, S, NP>
 where
     P: ParamDerivative<NX, NF, NP>,
     S: Scalar,
 {
     #[inline]
-    fn evaluate(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        h: &mut SVector<S, NF>,
-        jx: &mut SMatrix<S, NF, NX>,
-    ) {
+    fn evaluate(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NF>, jx: &mut SMatrix<S, NF, NX>) {
         P::residual_jacobian(x, &self.params_at(t), h, jx);
     }
 
@@ -526,13 +464,7 @@ where
     }
 
     #[inline]
-    fn jacobian_dt(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        jx: &mut SMatrix<S, NF, NX>,
-        dh: &mut SVector<S, NF>,
-    ) {
+    fn jacobian_dt(&self, x: &SVector<S, NX>, t: f64, jx: &mut SMatrix<S, NF, NX>, dh: &mut SVector<S, NF>) {
         let p = self.params_at(t);
         P::jacobian(x, &p, jx);
         P::param_directional(x, &p, &self.params_dt(t), dh);
@@ -558,20 +490,13 @@ impl<P, S: Scalar, const NP: usize> FixedSystem<P, S, NP> {
     }
 }
 
-impl<P, S, const NX: usize, const NF: usize, const NP: usize> Homotopy<S, NX, NF>
-    for FixedSystem<P, S, NP>
+impl<P, S, const NX: usize, const NF: usize, const NP: usize> Homotopy<S, NX, NF> for FixedSystem<P, S, NP>
 where
     P: Problem<NX, NF, NP>,
     S: Scalar,
 {
     #[inline]
-    fn evaluate(
-        &self,
-        x: &SVector<S, NX>,
-        _t: f64,
-        h: &mut SVector<S, NF>,
-        jx: &mut SMatrix<S, NF, NX>,
-    ) {
+    fn evaluate(&self, x: &SVector<S, NX>, _t: f64, h: &mut SVector<S, NF>, jx: &mut SMatrix<S, NF, NX>) {
         P::residual_jacobian(x, &self.p, h, jx);
     }
 
@@ -586,13 +511,7 @@ where
     }
 
     #[inline]
-    fn jacobian_dt(
-        &self,
-        x: &SVector<S, NX>,
-        _t: f64,
-        jx: &mut SMatrix<S, NF, NX>,
-        dh: &mut SVector<S, NF>,
-    ) {
+    fn jacobian_dt(&self, x: &SVector<S, NX>, _t: f64, jx: &mut SMatrix<S, NF, NX>, dh: &mut SVector<S, NF>) {
         P::jacobian(x, &self.p, jx);
         dh.fill(S::zero());
     }
@@ -665,13 +584,7 @@ where
     H: Homotopy<S, NX, NF>,
 {
     #[inline]
-    fn evaluate(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        h: &mut SVector<S, NX>,
-        jx: &mut SMatrix<S, NX, NX>,
-    ) {
+    fn evaluate(&self, x: &SVector<S, NX>, t: f64, h: &mut SVector<S, NX>, jx: &mut SMatrix<S, NX, NX>) {
         let mut hf = SVector::<S, NF>::zeros();
         let mut jf = SMatrix::<S, NF, NX>::zeros();
         self.inner.evaluate(x, t, &mut hf, &mut jf);
@@ -694,13 +607,7 @@ where
     }
 
     #[inline]
-    fn jacobian_dt(
-        &self,
-        x: &SVector<S, NX>,
-        t: f64,
-        jx: &mut SMatrix<S, NX, NX>,
-        dh: &mut SVector<S, NX>,
-    ) {
+    fn jacobian_dt(&self, x: &SVector<S, NX>, t: f64, jx: &mut SMatrix<S, NX, NX>, dh: &mut SVector<S, NX>) {
         let mut jf = SMatrix::<S, NF, NX>::zeros();
         let mut df = SVector::<S, NF>::zeros();
         self.inner.jacobian_dt(x, t, &mut jf, &mut df);

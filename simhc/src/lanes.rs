@@ -19,9 +19,7 @@ use std::ops::{Add, Mul, Neg, Sub};
 pub const LANES: usize = 4;
 
 /// Arithmetic on `LANES` values of a scalar at once: what generated row kernels need.
-pub trait Lanes:
-    Copy + std::fmt::Debug + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
-{
+pub trait Lanes: Copy + std::fmt::Debug + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self> {
     /// The scalar of one lane.
     type Scalar: Scalar;
     /// The real constant `c` in every lane.
@@ -253,11 +251,7 @@ impl Isa {
     pub fn available(self) -> bool {
         match self {
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => {
-                std::is_x86_feature_detected!("avx512f")
-                    && std::is_x86_feature_detected!("avx512vl")
-                    && Isa::Avx2.available()
-            }
+            Isa::Avx512 => std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512vl") && Isa::Avx2.available(),
             #[cfg(target_arch = "x86_64")]
             Isa::Avx2 => std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma"),
             Isa::Baseline => true,

@@ -50,9 +50,7 @@ pub struct SignFlip {
 impl SignFlip {
     /// The flip of `indices`.
     pub fn new(indices: impl Into<Vec<usize>>) -> Self {
-        Self {
-            indices: indices.into(),
-        }
+        Self { indices: indices.into() }
     }
 
     /// `g(x)`.
@@ -104,21 +102,14 @@ pub struct SolutionSet<const N: usize> {
 impl<const N: usize> SolutionSet<N> {
     /// An empty set; two points closer than `tolerance` (relative max-norm) are the same.
     pub fn new(symmetry: Option<SignFlip>, tolerance: f64) -> Self {
-        Self {
-            solutions: Vec::new(),
-            symmetry,
-            tolerance,
-        }
+        Self { solutions: Vec::new(), symmetry, tolerance }
     }
 
     /// Index of a known solution equal to `x` (or to its symmetric image).
     pub fn find(&self, x: &SVector<C, N>) -> Option<usize> {
         let gx = self.symmetry.as_ref().map(|g| g.apply(x));
         self.solutions.iter().position(|s| {
-            relative_distance(s, x) <= self.tolerance
-                || gx
-                    .as_ref()
-                    .is_some_and(|gx| relative_distance(s, gx) <= self.tolerance)
+            relative_distance(s, x) <= self.tolerance || gx.as_ref().is_some_and(|gx| relative_distance(s, gx) <= self.tolerance)
         })
     }
 
@@ -294,10 +285,7 @@ fn min_norm_step(a: &DMatrix<C>, b: &DVector<C>) -> Option<DVector<C>> {
 /// Smallest singular value of `dF/dx`.
 fn sigma_min<const N: usize>(jx: &SMatrix<C, N, N>) -> f64 {
     let d = DMatrix::from_iterator(N, N, jx.iter().copied());
-    d.singular_values()
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min)
+    d.singular_values().iter().copied().fold(f64::INFINITY, f64::min)
 }
 
 /// A regular solution `(x*, p*)` of a generic complex instance: random `x`, projected onto the
@@ -310,19 +298,14 @@ pub fn seed_pair<P, const N: usize, const NP: usize>(
 where
     P: ParamDerivative<N, N, NP>,
 {
-    let mut last = MonodromyError::NoSeedPair {
-        residual: f64::INFINITY,
-        sigma_min: 0.0,
-    };
+    let mut last = MonodromyError::NoSeedPair { residual: f64::INFINITY, sigma_min: 0.0 };
     for _attempt in 0..8 {
         let mut x = random_complex_vector::<N>(rng, 1.0);
         let mut p = random_complex_vector::<NP>(rng, param_scale);
         // Rows of dF/dp that vanish: equations without parameters.
         let (_, _, jp) = dense_jacobians::<P, N, NP>(&x, &p);
         let jp_scale = jp.iter().map(|z| z.norm()).fold(0.0, f64::max).max(1e-300);
-        let free: Vec<usize> = (0..N)
-            .filter(|&r| (0..NP).all(|c| jp[(r, c)].norm() <= 1e-14 * jp_scale))
-            .collect();
+        let free: Vec<usize> = (0..N).filter(|&r| (0..NP).all(|c| jp[(r, c)].norm() <= 1e-14 * jp_scale)).collect();
         let bound: Vec<usize> = (0..N).filter(|r| !free.contains(r)).collect();
         // 1. x onto the parameter-free equations.
         let mut ok = true;
@@ -378,10 +361,7 @@ where
         if residual <= 1e-12 && s > 1e-8 {
             return Ok((x, p));
         }
-        last = MonodromyError::NoSeedPair {
-            residual,
-            sigma_min: s,
-        };
+        last = MonodromyError::NoSeedPair { residual, sigma_min: s };
     }
     Err(last)
 }
@@ -426,9 +406,7 @@ where
 }
 
 /// Runs monodromy from a fresh random seed pair (see the module docs).
-pub fn monodromy_solve<P, const N: usize, const NP: usize>(
-    options: &MonodromyOptions,
-) -> Result<MonodromyResult<N, NP>, MonodromyError>
+pub fn monodromy_solve<P, const N: usize, const NP: usize>(options: &MonodromyOptions) -> Result<MonodromyResult<N, NP>, MonodromyError>
 where
     P: ParamDerivative<N, N, NP>,
 {
@@ -472,26 +450,16 @@ where
         if loops >= options.max_loops {
             break StopReason::MaxLoops;
         }
-        let points = [
-            *p0,
-            random_complex_vector::<NP>(rng, options.param_scale),
-            random_complex_vector::<NP>(rng, options.param_scale),
-        ];
+        let points = [*p0, random_complex_vector::<NP>(rng, options.param_scale), random_complex_vector::<NP>(rng, options.param_scale)];
         let before = set.len();
         let mut next = 0;
         while next < set.len() {
             let batch: Vec<SVector<C, N>> = set.solutions()[next..].to_vec();
             next = set.len();
             let ends: Vec<(Option<SVector<C, N>>, usize)> = if options.parallel {
-                batch
-                    .par_iter()
-                    .map(|x| track_loop::<P, N, NP>(x, &points, &options.tracker, tol))
-                    .collect()
+                batch.par_iter().map(|x| track_loop::<P, N, NP>(x, &points, &options.tracker, tol)).collect()
             } else {
-                batch
-                    .iter()
-                    .map(|x| track_loop::<P, N, NP>(x, &points, &options.tracker, tol))
-                    .collect()
+                batch.iter().map(|x| track_loop::<P, N, NP>(x, &points, &options.tracker, tol)).collect()
             };
             for (end, edges) in ends {
                 paths_tracked += edges;

@@ -30,32 +30,16 @@ pub trait Problem<const NX: usize, const NF: usize, const NP: usize>: ProblemInf
     /// `dF/dx (x; p)`.
     fn jacobian<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, j: &mut SMatrix<S, NF, NX>);
     /// Both at once, sharing common subexpressions.
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, NX>,
-        p: &SVector<S, NP>,
-        f: &mut SVector<S, NF>,
-        j: &mut SMatrix<S, NF, NX>,
-    );
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, f: &mut SVector<S, NF>, j: &mut SMatrix<S, NF, NX>);
 }
 
 /// Derivatives of `F(x; p)` with respect to the parameters `p`, for parameter homotopies
 /// (`dH/dt = dF/dp * (p1 - p0)`) and for the generic minimum-norm simulator.
-pub trait ParamDerivative<const NX: usize, const NF: usize, const NP: usize>:
-    Problem<NX, NF, NP>
-{
+pub trait ParamDerivative<const NX: usize, const NF: usize, const NP: usize>: Problem<NX, NF, NP> {
     /// `dF/dp (x; p)`, dense.
-    fn param_jacobian<S: Scalar>(
-        x: &SVector<S, NX>,
-        p: &SVector<S, NP>,
-        jp: &mut SMatrix<S, NF, NP>,
-    );
+    fn param_jacobian<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, jp: &mut SMatrix<S, NF, NP>);
     /// `dF/dp (x; p) * dp` without forming the matrix.
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, NX>,
-        p: &SVector<S, NP>,
-        dp: &SVector<S, NP>,
-        out: &mut SVector<S, NF>,
-    );
+    fn param_directional<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, dp: &SVector<S, NP>, out: &mut SVector<S, NF>);
 }
 
 /// Where [`CoefficientForm::lanes_row_params`] finds its inputs.
@@ -87,18 +71,11 @@ pub struct ParamRowLayout {
     label = "sizes differ from this instance's",
     note = "the sizes of a `#[simhc_problem]` instance are in its docs and in `Foo::NX`, `Foo::NF`, `Foo::NP`, `Foo::NC`"
 )]
-pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, const NC: usize>:
-    Problem<NX, NF, NP>
-{
+pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, const NC: usize>: Problem<NX, NF, NP> {
     /// `c(p)`.
     fn coefficients<S: Scalar>(p: &SVector<S, NP>, c: &mut SVector<S, NC>);
     /// `Fc(x; c)` and `dFc/dx (x; c)`.
-    fn residual_jacobian_coeffs<S: Scalar>(
-        x: &SVector<S, NX>,
-        c: &SVector<S, NC>,
-        f: &mut SVector<S, NF>,
-        j: &mut SMatrix<S, NF, NX>,
-    );
+    fn residual_jacobian_coeffs<S: Scalar>(x: &SVector<S, NX>, c: &SVector<S, NC>, f: &mut SVector<S, NF>, j: &mut SMatrix<S, NF, NX>);
     /// `Fc(x; c)`.
     fn residual_coeffs<S: Scalar>(x: &SVector<S, NX>, c: &SVector<S, NC>, f: &mut SVector<S, NF>);
     /// The part of `Fc` linear in the coefficients, evaluated at `dc`: `dFc/dc (x) * dc`, which
@@ -117,12 +94,7 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
     /// `chunks * per_row`. The row kernels then take `dc(t)` straight from the lanes (no
     /// gathering, Horner in `t` vectorized). Only for `ROW_LAYOUT = Some(..)`; the default (and
     /// a `poly` of the wrong length) writes NaN.
-    fn coefficient_part_poly<S: Scalar>(
-        x: &SVector<S, NX>,
-        t: f64,
-        poly: &[S::Lanes],
-        out: &mut SVector<S, NF>,
-    ) {
+    fn coefficient_part_poly<S: Scalar>(x: &SVector<S, NX>, t: f64, poly: &[S::Lanes], out: &mut SVector<S, NF>) {
         let _ = (x, t, poly);
         out.fill(S::from_real(f64::NAN));
     }
@@ -142,14 +114,7 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
     /// `d` (`epr`: `dH/dt` for `dc = dc/dt`). Wrong lengths leave the outputs untouched. The
     /// default does nothing.
     #[inline(always)]
-    fn lanes_row<L: crate::lanes::Lanes>(
-        x: &[L; NX],
-        c: &[L],
-        dc: &[L],
-        f: &mut [L],
-        j: &mut [L],
-        d: &mut [L],
-    ) {
+    fn lanes_row<L: crate::lanes::Lanes>(x: &[L; NX], c: &[L], dc: &[L], f: &mut [L], j: &mut [L], d: &mut [L]) {
         let _ = (x, c, dc, f, j, d);
     }
 
@@ -174,15 +139,7 @@ pub trait CoefficientForm<const NX: usize, const NF: usize, const NP: usize, con
     /// forward mode for `d`), so it keeps the structure the coefficient form multiplies out.
     /// Wrong lengths leave the outputs untouched. The default does nothing.
     #[inline(always)]
-    fn lanes_row_params<L: crate::lanes::Lanes>(
-        x: &[L; NX],
-        shared: &[L],
-        p: &[L],
-        dp: &[L],
-        f: &mut [L],
-        j: &mut [L],
-        d: &mut [L],
-    ) {
+    fn lanes_row_params<L: crate::lanes::Lanes>(x: &[L; NX], shared: &[L], p: &[L], dp: &[L], f: &mut [L], j: &mut [L], d: &mut [L]) {
         let _ = (x, shared, p, dp, f, j, d);
     }
 

@@ -63,7 +63,6 @@ const ROW_BLOCK: usize = 4;
 /// Magic bytes at the start of the binary format.
 pub const FOLDED_MAGIC: &[u8; 8] = b"SHCFOLD1";
 
-
 /// Errors of loading or running a [`FoldedNetwork`].
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
 pub enum RegressorError {
@@ -106,31 +105,17 @@ pub struct DenseLayer {
 impl DenseLayer {
     /// A layer from its weights (`inputs * outputs`, row-major `[inputs][outputs]`) and bias
     /// (`outputs`).
-    pub fn new(
-        inputs: usize,
-        outputs: usize,
-        weights: Vec<f32>,
-        bias: Vec<f32>,
-    ) -> Result<Self, RegressorError> {
+    pub fn new(inputs: usize, outputs: usize, weights: Vec<f32>, bias: Vec<f32>) -> Result<Self, RegressorError> {
         if inputs == 0 || outputs == 0 || inputs > MAX_WIDTH || outputs > MAX_WIDTH {
-            return Err(RegressorError::Format(
-                "layer width zero or above MAX_WIDTH",
-            ));
+            return Err(RegressorError::Format("layer width zero or above MAX_WIDTH"));
         }
         if weights.len() != inputs * outputs || bias.len() != outputs {
-            return Err(RegressorError::Format(
-                "layer weight or bias length mismatch",
-            ));
+            return Err(RegressorError::Format("layer weight or bias length mismatch"));
         }
         if weights.iter().chain(&bias).any(|w| !w.is_finite()) {
             return Err(RegressorError::Format("non-finite weight"));
         }
-        Ok(Self {
-            inputs,
-            outputs,
-            weights,
-            bias,
-        })
+        Ok(Self { inputs, outputs, weights, bias })
     }
 
     /// Input width.
@@ -174,11 +159,7 @@ impl DenseLayer {
     /// `y[r] = relu(b + x[r] W)` for a block of [`ROW_BLOCK`] rows, register-tiled over
     /// `TILE` outputs x `ROW_BLOCK` rows so that every weight is loaded once per block.
     #[inline(always)]
-    fn apply_block<const TILE: usize, const FMA: bool>(
-        &self,
-        x: &[[f32; MAX_WIDTH]; ROW_BLOCK],
-        y: &mut [[f32; MAX_WIDTH]; ROW_BLOCK],
-    ) {
+    fn apply_block<const TILE: usize, const FMA: bool>(&self, x: &[[f32; MAX_WIDTH]; ROW_BLOCK], y: &mut [[f32; MAX_WIDTH]; ROW_BLOCK]) {
         let (n_in, o) = (self.inputs, self.outputs);
         let tiled = o - o % TILE;
         for j0 in (0..tiled).step_by(TILE) {
@@ -245,14 +226,10 @@ impl FoldedNetwork {
         normalize_output: bool,
     ) -> Result<Self, RegressorError> {
         if input_width == 0 || input_width > MAX_WIDTH {
-            return Err(RegressorError::Format(
-                "input width zero or above MAX_WIDTH",
-            ));
+            return Err(RegressorError::Format("input width zero or above MAX_WIDTH"));
         }
         if point_layers.is_empty() || head_layers.is_empty() {
-            return Err(RegressorError::Format(
-                "need at least one point and one head layer",
-            ));
+            return Err(RegressorError::Format("need at least one point and one head layer"));
         }
         let mut width = input_width;
         for layer in point_layers.iter().chain(&head_layers) {
@@ -261,12 +238,7 @@ impl FoldedNetwork {
             }
             width = layer.outputs;
         }
-        Ok(Self {
-            input_width,
-            point_layers,
-            head_layers,
-            normalize_output,
-        })
+        Ok(Self { input_width, point_layers, head_layers, normalize_output })
     }
 
     /// Parses the binary format of the module docs (for example an `include_bytes!` of a
@@ -291,9 +263,7 @@ impl FoldedNetwork {
             let inputs = reader.u32()?;
             let outputs = reader.u32()?;
             if inputs == 0 || outputs == 0 || inputs > MAX_WIDTH || outputs > MAX_WIDTH {
-                return Err(RegressorError::Format(
-                    "layer width zero or above MAX_WIDTH",
-                ));
+                return Err(RegressorError::Format("layer width zero or above MAX_WIDTH"));
             }
             let weights = reader.f32s(inputs * outputs)?;
             let bias = reader.f32s(outputs)?;
@@ -310,12 +280,7 @@ impl FoldedNetwork {
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = Vec::new();
         out.extend_from_slice(FOLDED_MAGIC);
-        for v in [
-            self.input_width,
-            self.point_layers.len(),
-            self.head_layers.len(),
-            usize::from(self.normalize_output),
-        ] {
+        for v in [self.input_width, self.point_layers.len(), self.head_layers.len(), usize::from(self.normalize_output)] {
             out.extend_from_slice(&(v as u32).to_le_bytes());
         }
         for layer in self.point_layers.iter().chain(&self.head_layers) {
@@ -355,11 +320,7 @@ impl FoldedNetwork {
 
     /// Number of parameters (weights and biases).
     pub fn num_params(&self) -> usize {
-        self.point_layers
-            .iter()
-            .chain(&self.head_layers)
-            .map(|l| l.weights.len() + l.bias.len())
-            .sum()
+        self.point_layers.iter().chain(&self.head_layers).map(|l| l.weights.len() + l.bias.len()).sum()
     }
 
     /// Runs the network on `rows` (flat, `N * input_width` numbers, row after row, `N >= 1`;
@@ -377,16 +338,10 @@ impl FoldedNetwork {
             return Err(RegressorError::EmptyInput);
         }
         if rows.len() % c != 0 {
-            return Err(RegressorError::RowLength {
-                len: rows.len(),
-                width: c,
-            });
+            return Err(RegressorError::RowLength { len: rows.len(), width: c });
         }
         if out.len() != self.output_width() {
-            return Err(RegressorError::OutputLength {
-                expected: self.output_width(),
-                got: out.len(),
-            });
+            return Err(RegressorError::OutputLength { expected: self.output_width(), got: out.len() });
         }
         if rows.iter().any(|v| !v.is_finite()) {
             return Err(RegressorError::NonFinite);
@@ -473,13 +428,8 @@ impl<'a> Reader<'a> {
     }
 
     fn f32s(&mut self, n: usize) -> Result<Vec<f32>, RegressorError> {
-        let b = self.take(
-            n.checked_mul(4)
-                .ok_or(RegressorError::Format("truncated"))?,
-        )?;
-        Ok(b.chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect())
+        let b = self.take(n.checked_mul(4).ok_or(RegressorError::Format("truncated"))?)?;
+        Ok(b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
     }
 }
 
@@ -507,13 +457,7 @@ mod tests {
 
     fn tiny() -> FoldedNetwork {
         // 2 -> 3 (point) -> 2 (head)
-        let l1 = DenseLayer::new(
-            2,
-            3,
-            vec![1.0, -1.0, 0.5, 2.0, 0.0, -0.5],
-            vec![0.0, 0.1, 0.2],
-        )
-        .unwrap();
+        let l1 = DenseLayer::new(2, 3, vec![1.0, -1.0, 0.5, 2.0, 0.0, -0.5], vec![0.0, 0.1, 0.2]).unwrap();
         let h = DenseLayer::new(3, 2, vec![1.0, 0.0, 0.0, 1.0, 1.0, 1.0], vec![0.0, 0.0]).unwrap();
         FoldedNetwork::new(2, vec![l1], vec![h], false).unwrap()
     }
@@ -527,9 +471,7 @@ mod tests {
             for l in net.point_layers() {
                 x = (0..l.outputs())
                     .map(|j| {
-                        let s: f32 = (0..l.inputs())
-                            .map(|i| x[i] * l.weights()[i * l.outputs() + j])
-                            .sum();
+                        let s: f32 = (0..l.inputs()).map(|i| x[i] * l.weights()[i * l.outputs() + j]).sum();
                         (s + l.bias()[j]).max(0.0)
                     })
                     .collect();
@@ -544,9 +486,7 @@ mod tests {
         for (k, l) in net.head_layers().iter().enumerate() {
             x = (0..l.outputs())
                 .map(|j| {
-                    let s: f32 = (0..l.inputs())
-                        .map(|i| x[i] * l.weights()[i * l.outputs() + j])
-                        .sum();
+                    let s: f32 = (0..l.inputs()).map(|i| x[i] * l.weights()[i * l.outputs() + j]).sum();
                     let v = s + l.bias()[j];
                     if k == last {
                         v
@@ -571,10 +511,7 @@ mod tests {
         // row (0, 1): [2, 0.1, -0.5+0.2 -> 0] ; max = [3, 0.1, 0.2]
         let mut out = [0.0; 2];
         net.forward(&[1.0, 1.0, 0.0, 1.0], &mut out).unwrap();
-        assert!(
-            (out[0] - 3.2).abs() < 1e-6 && (out[1] - 0.3).abs() < 1e-6,
-            "{out:?}"
-        );
+        assert!((out[0] - 3.2).abs() < 1e-6 && (out[1] - 0.3).abs() < 1e-6, "{out:?}");
     }
 
     #[test]
@@ -582,39 +519,17 @@ mod tests {
         // widths not multiples of the tile, row counts not multiples of the block
         let mut state = 12345u64;
         let mut rnd = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((state >> 33) as f32 / (1u64 << 31) as f32) - 0.5
         };
         let dims = [(5, 19), (19, 24), (24, 37)];
         let point: Vec<DenseLayer> = dims
             .iter()
-            .map(|&(i, o)| {
-                DenseLayer::new(
-                    i,
-                    o,
-                    (0..i * o).map(|_| rnd()).collect(),
-                    (0..o).map(|_| rnd()).collect(),
-                )
-                .unwrap()
-            })
+            .map(|&(i, o)| DenseLayer::new(i, o, (0..i * o).map(|_| rnd()).collect(), (0..o).map(|_| rnd()).collect()).unwrap())
             .collect();
         let head = vec![
-            DenseLayer::new(
-                37,
-                11,
-                (0..37 * 11).map(|_| rnd()).collect(),
-                (0..11).map(|_| rnd()).collect(),
-            )
-            .unwrap(),
-            DenseLayer::new(
-                11,
-                4,
-                (0..44).map(|_| rnd()).collect(),
-                (0..4).map(|_| rnd()).collect(),
-            )
-            .unwrap(),
+            DenseLayer::new(37, 11, (0..37 * 11).map(|_| rnd()).collect(), (0..11).map(|_| rnd()).collect()).unwrap(),
+            DenseLayer::new(11, 4, (0..44).map(|_| rnd()).collect(), (0..4).map(|_| rnd()).collect()).unwrap(),
         ];
         let net = FoldedNetwork::new(5, point, head, true).unwrap();
         for n in [1, 3, 4, 7, 16] {
@@ -626,10 +541,7 @@ mod tests {
             let want = reference(&net, &rows);
             for ((a, p), b) in out.iter().zip(&portable).zip(&want) {
                 assert!((a - b).abs() < 1e-5, "n={n}: {out:?} vs {want:?}");
-                assert!(
-                    (p - b).abs() < 1e-5,
-                    "n={n}: portable {portable:?} vs {want:?}"
-                );
+                assert!((p - b).abs() < 1e-5, "n={n}: portable {portable:?} vs {want:?}");
             }
         }
         let back = FoldedNetwork::from_bytes(&net.to_bytes()).unwrap();
@@ -641,35 +553,14 @@ mod tests {
         let net = tiny();
         let mut out = [0.0; 2];
         assert_eq!(net.forward(&[], &mut out), Err(RegressorError::EmptyInput));
-        assert_eq!(
-            net.forward(&[1.0; 3], &mut out),
-            Err(RegressorError::RowLength { len: 3, width: 2 })
-        );
-        assert_eq!(
-            net.forward(&[1.0; 2], &mut [0.0; 3]),
-            Err(RegressorError::OutputLength {
-                expected: 2,
-                got: 3
-            })
-        );
-        assert_eq!(
-            net.forward(&[f32::NAN, 1.0], &mut out),
-            Err(RegressorError::NonFinite)
-        );
+        assert_eq!(net.forward(&[1.0; 3], &mut out), Err(RegressorError::RowLength { len: 3, width: 2 }));
+        assert_eq!(net.forward(&[1.0; 2], &mut [0.0; 3]), Err(RegressorError::OutputLength { expected: 2, got: 3 }));
+        assert_eq!(net.forward(&[f32::NAN, 1.0], &mut out), Err(RegressorError::NonFinite));
         let bytes = net.to_bytes();
-        assert!(matches!(
-            FoldedNetwork::from_bytes(&bytes[..bytes.len() - 1]),
-            Err(RegressorError::Format(_))
-        ));
+        assert!(matches!(FoldedNetwork::from_bytes(&bytes[..bytes.len() - 1]), Err(RegressorError::Format(_))));
         let mut extra = bytes.clone();
         extra.push(0);
-        assert!(matches!(
-            FoldedNetwork::from_bytes(&extra),
-            Err(RegressorError::Format(_))
-        ));
-        assert!(matches!(
-            FoldedNetwork::from_bytes(b"NOTMAGIC"),
-            Err(RegressorError::Format(_))
-        ));
+        assert!(matches!(FoldedNetwork::from_bytes(&extra), Err(RegressorError::Format(_))));
+        assert!(matches!(FoldedNetwork::from_bytes(b"NOTMAGIC"), Err(RegressorError::Format(_))));
     }
 }

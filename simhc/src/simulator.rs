@@ -32,11 +32,7 @@ pub enum SimulatorError {
 /// Builds a start problem for a predicted solution.
 pub trait OnlineSimulator<const NX: usize, const NF: usize, const NP: usize> {
     /// Returns `p0` with `F(x0; p0) = 0`, as close to `p` as the rule makes it.
-    fn simulate(
-        &self,
-        x0: &SVector<f64, NX>,
-        p: &SVector<f64, NP>,
-    ) -> Result<SVector<f64, NP>, SimulatorError>;
+    fn simulate(&self, x0: &SVector<f64, NX>, p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, SimulatorError>;
 }
 
 /// The generic simulator: minimum-norm parameter correction by Gauss-Newton on `p`,
@@ -182,16 +178,11 @@ pub fn min_norm_step<const NF: usize, const NP: usize>(
     d.iter().all(|v| v.is_finite()).then_some(d)
 }
 
-impl<P, const NX: usize, const NF: usize, const NP: usize> OnlineSimulator<NX, NF, NP>
-    for MinNormSimulator<P>
+impl<P, const NX: usize, const NF: usize, const NP: usize> OnlineSimulator<NX, NF, NP> for MinNormSimulator<P>
 where
     P: ParamDerivative<NX, NF, NP>,
 {
-    fn simulate(
-        &self,
-        x0: &SVector<f64, NX>,
-        p: &SVector<f64, NP>,
-    ) -> Result<SVector<f64, NP>, SimulatorError> {
+    fn simulate(&self, x0: &SVector<f64, NX>, p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, SimulatorError> {
         self.run::<NX, NF, NP>(x0, p)
     }
 }

@@ -3,13 +3,8 @@
 //! (4 solutions, 2 modulo `(x, y) -> (-x, -y)`) with a parameter-free equation.
 
 use nalgebra::{SMatrix, SVector, Vector2};
-use simhc::all_roots::{
-    move_start_system, solve_all, suspicious_paths, AllRootsOptions, StartSystem,
-};
-use simhc::monodromy::{
-    monodromy_solve, relative_distance, seed_pair, MonodromyOptions, SignFlip, SolutionSet,
-    StopReason,
-};
+use simhc::all_roots::{move_start_system, solve_all, suspicious_paths, AllRootsOptions, StartSystem};
+use simhc::monodromy::{monodromy_solve, relative_distance, seed_pair, MonodromyOptions, SignFlip, SolutionSet, StopReason};
 use simhc::scalar::C;
 use simhc::tracker::TrackError;
 use simhc::{ParamDerivative, Problem, ProblemInfo, Scalar};
@@ -23,14 +18,7 @@ fn conic_monomials<S: Scalar>(x: &SVector<S, 2>) -> [S; 6] {
 fn conic_gradients<S: Scalar>(x: &SVector<S, 2>) -> [[S; 2]; 6] {
     let (a, b) = (x[0], x[1]);
     let (z, one, two) = (S::zero(), S::one(), S::from_real(2.0));
-    [
-        [two * a, z],
-        [b, a],
-        [z, two * b],
-        [one, z],
-        [z, one],
-        [z, z],
-    ]
+    [[two * a, z], [b, a], [z, two * b], [one, z], [z, one], [z, z]]
 }
 
 /// Two general conics: `f_k = sum_j p[6k + j] m_j(x, y)`; 4 solutions.
@@ -57,23 +45,14 @@ impl Problem<2, 2, 12> for TwoConics {
             }
         }
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, 12>,
-        f: &mut SVector<S, 2>,
-        j: &mut SMatrix<S, 2, 2>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 12>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
 }
 
 impl ParamDerivative<2, 2, 12> for TwoConics {
-    fn param_jacobian<S: Scalar>(
-        x: &SVector<S, 2>,
-        _p: &SVector<S, 12>,
-        jp: &mut SMatrix<S, 2, 12>,
-    ) {
+    fn param_jacobian<S: Scalar>(x: &SVector<S, 2>, _p: &SVector<S, 12>, jp: &mut SMatrix<S, 2, 12>) {
         let m = conic_monomials(x);
         jp.fill(S::zero());
         for k in 0..2 {
@@ -82,12 +61,7 @@ impl ParamDerivative<2, 2, 12> for TwoConics {
             }
         }
     }
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, 2>,
-        _p: &SVector<S, 12>,
-        dp: &SVector<S, 12>,
-        out: &mut SVector<S, 2>,
-    ) {
+    fn param_directional<S: Scalar>(x: &SVector<S, 2>, _p: &SVector<S, 12>, dp: &SVector<S, 12>, out: &mut SVector<S, 2>) {
         let m = conic_monomials(x);
         for k in 0..2 {
             out[k] = (0..6).fold(S::zero(), |acc, j| acc + dp[6 * k + j] * m[j]);
@@ -117,12 +91,7 @@ impl Problem<2, 2, 6> for CircleLine {
         j[(1, 0)] = p[3];
         j[(1, 1)] = p[4];
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, 6>,
-        f: &mut SVector<S, 2>,
-        j: &mut SMatrix<S, 2, 2>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -139,12 +108,7 @@ impl ParamDerivative<2, 2, 6> for CircleLine {
         jp[(1, 4)] = x[1];
         jp[(1, 5)] = S::one();
     }
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, 6>,
-        dp: &SVector<S, 6>,
-        out: &mut SVector<S, 2>,
-    ) {
+    fn param_directional<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, dp: &SVector<S, 6>, out: &mut SVector<S, 2>) {
         let mut jp = SMatrix::<S, 2, 6>::zeros();
         Self::param_jacobian(x, p, &mut jp);
         *out = jp * dp;
@@ -175,12 +139,7 @@ impl Problem<2, 2, 4> for EvenPair {
         j[(1, 0)] = two * p[0] * u + p[1] * v;
         j[(1, 1)] = p[1] * u + two * p[2] * v;
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, 4>,
-        f: &mut SVector<S, 2>,
-        j: &mut SMatrix<S, 2, 2>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 4>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -195,22 +154,14 @@ impl ParamDerivative<2, 2, 4> for EvenPair {
         jp[(1, 2)] = v * v;
         jp[(1, 3)] = S::one();
     }
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, 4>,
-        dp: &SVector<S, 4>,
-        out: &mut SVector<S, 2>,
-    ) {
+    fn param_directional<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 4>, dp: &SVector<S, 4>, out: &mut SVector<S, 2>) {
         let mut jp = SMatrix::<S, 2, 4>::zeros();
         Self::param_jacobian(x, p, &mut jp);
         *out = jp * dp;
     }
 }
 
-fn max_residual<P: Problem<2, 2, NP>, const NP: usize>(
-    xs: &[SVector<C, 2>],
-    p: &SVector<C, NP>,
-) -> f64 {
+fn max_residual<P: Problem<2, 2, NP>, const NP: usize>(xs: &[SVector<C, 2>], p: &SVector<C, NP>) -> f64 {
     let mut f = SVector::<C, 2>::zeros();
     xs.iter()
         .map(|x| {
@@ -238,17 +189,8 @@ fn pairwise_distinct(xs: &[SVector<C, 2>], g: Option<&SignFlip>) -> bool {
 #[test]
 fn two_generic_conics_have_four_solutions() {
     for seed in [1, 2, 3] {
-        let r = monodromy_solve::<TwoConics, 2, 12>(&MonodromyOptions {
-            seed,
-            ..Default::default()
-        })
-        .expect("seed pair");
-        println!(
-            "seed {seed}: {} solutions, {} loops, history {:?}",
-            r.solutions.len(),
-            r.loops,
-            r.history
-        );
+        let r = monodromy_solve::<TwoConics, 2, 12>(&MonodromyOptions { seed, ..Default::default() }).expect("seed pair");
+        println!("seed {seed}: {} solutions, {} loops, history {:?}", r.solutions.len(), r.loops, r.history);
         assert_eq!(r.solutions.len(), 4, "seed {seed}");
         assert_eq!(r.stop, StopReason::Stalled);
         assert!(r.loops >= 5 && r.history.len() == r.loops);
@@ -260,33 +202,18 @@ fn two_generic_conics_have_four_solutions() {
 
 #[test]
 fn circle_and_line_have_two_solutions() {
-    let r = monodromy_solve::<CircleLine, 2, 6>(&MonodromyOptions {
-        seed: 7,
-        ..Default::default()
-    })
-    .unwrap();
+    let r = monodromy_solve::<CircleLine, 2, 6>(&MonodromyOptions { seed: 7, ..Default::default() }).unwrap();
     assert_eq!(r.solutions.len(), 2);
     assert!(max_residual::<CircleLine, 6>(&r.solutions, &r.params) < 1e-10);
 }
 
 #[test]
 fn target_count_stops_early_and_parallel_matches_sequential() {
-    let opts = MonodromyOptions {
-        seed: 5,
-        target_count: Some(4),
-        ..Default::default()
-    };
+    let opts = MonodromyOptions { seed: 5, target_count: Some(4), ..Default::default() };
     let r = monodromy_solve::<TwoConics, 2, 12>(&opts).unwrap();
     assert_eq!((r.solutions.len(), r.stop), (4, StopReason::TargetReached));
-    let par = monodromy_solve::<TwoConics, 2, 12>(&MonodromyOptions {
-        parallel: true,
-        ..opts
-    })
-    .unwrap();
-    assert_eq!(
-        r.solutions, par.solutions,
-        "rayon must not change the result"
-    );
+    let par = monodromy_solve::<TwoConics, 2, 12>(&MonodromyOptions { parallel: true, ..opts }).unwrap();
+    assert_eq!(r.solutions, par.solutions, "rayon must not change the result");
 }
 
 #[test]
@@ -299,22 +226,9 @@ fn sign_symmetry_stores_one_representative_per_pair() {
     EvenPair::residual(&x, &p, &mut f);
     assert!(f.iter().all(|z| z.norm() < 1e-12), "{f:?}");
 
-    let with = monodromy_solve::<EvenPair, 2, 4>(&MonodromyOptions {
-        seed: 3,
-        symmetry: Some(g.clone()),
-        ..Default::default()
-    })
-    .unwrap();
-    let without = monodromy_solve::<EvenPair, 2, 4>(&MonodromyOptions {
-        seed: 3,
-        ..Default::default()
-    })
-    .unwrap();
-    println!(
-        "with symmetry {}, without {}",
-        with.solutions.len(),
-        without.solutions.len()
-    );
+    let with = monodromy_solve::<EvenPair, 2, 4>(&MonodromyOptions { seed: 3, symmetry: Some(g.clone()), ..Default::default() }).unwrap();
+    let without = monodromy_solve::<EvenPair, 2, 4>(&MonodromyOptions { seed: 3, ..Default::default() }).unwrap();
+    println!("with symmetry {}, without {}", with.solutions.len(), without.solutions.len());
     assert_eq!(with.solutions.len(), 2);
     assert_eq!(without.solutions.len(), 4);
     assert!(pairwise_distinct(&with.solutions, Some(&g)));
@@ -339,16 +253,8 @@ fn solution_set_dedups_modulo_the_symmetry() {
 
 #[test]
 fn all_roots_of_real_conics_from_a_monodromy_start() {
-    let r = monodromy_solve::<TwoConics, 2, 12>(&MonodromyOptions {
-        seed: 11,
-        ..Default::default()
-    })
-    .unwrap();
-    let start = StartSystem {
-        params: r.params,
-        solutions: r.solutions,
-        symmetry: None,
-    };
+    let r = monodromy_solve::<TwoConics, 2, 12>(&MonodromyOptions { seed: 11, ..Default::default() }).unwrap();
+    let start = StartSystem { params: r.params, solutions: r.solutions, symmetry: None };
     // Target: x^2 - 1 = 0 and y^2 - 4 = 0 mixed, f1 = (x^2 - 1) + (y^2 - 4), f2 = (x^2 - 1) - 2 (y^2 - 4):
     // four real solutions (+-1, +-2).
     let target = SVector::<f64, 12>::from_row_slice(&[
@@ -356,14 +262,7 @@ fn all_roots_of_real_conics_from_a_monodromy_start() {
         1.0, 0.0, -2.0, 0.0, 0.0, 7.0,
     ]);
     for parallel in [false, true] {
-        let res = solve_all::<TwoConics, 2, 12>(
-            &start,
-            &target,
-            &AllRootsOptions {
-                parallel,
-                ..Default::default()
-            },
-        );
+        let res = solve_all::<TwoConics, 2, 12>(&start, &target, &AllRootsOptions { parallel, ..Default::default() });
         assert_eq!(res.failed, 0);
         assert_eq!(res.real.len(), 4, "{:?}", res.real);
         for (sx, sy) in [(1.0, 2.0), (1.0, -2.0), (-1.0, 2.0), (-1.0, -2.0)] {
@@ -371,10 +270,7 @@ fn all_roots_of_real_conics_from_a_monodromy_start() {
             assert!(d < 1e-10, "({sx}, {sy}): {d:e}");
             assert!(best.residual < 1e-12);
         }
-        assert!(
-            res.real.windows(2).all(|w| w[0].residual <= w[1].residual),
-            "sorted by residual"
-        );
+        assert!(res.real.windows(2).all(|w| w[0].residual <= w[1].residual), "sorted by residual");
         assert_eq!(res.duplicates, 0);
     }
     // A target with two real and two complex solutions: x^2 + y^2 = 4 and y = x^2 + 1 (complex
@@ -396,8 +292,7 @@ fn suspicious_paths_flags_failures_and_coinciding_end_points() {
     let a = SVector::<C, 2>::new(C::new(1.0, 0.0), C::new(2.0, 1.0));
     let b = SVector::<C, 2>::new(C::new(-1.0, 0.0), C::new(-2.0, -1.0)); // = g(a)
     let c = SVector::<C, 2>::new(C::new(3.0, 0.0), C::new(0.0, 1.0));
-    let results: Vec<Result<SVector<C, 2>, TrackError>> =
-        vec![Ok(a), Ok(c), Err(TrackError::MaxSteps { t: 0.5 }), Ok(b)];
+    let results: Vec<Result<SVector<C, 2>, TrackError>> = vec![Ok(a), Ok(c), Err(TrackError::MaxSteps { t: 0.5 }), Ok(b)];
     assert_eq!(suspicious_paths(&results, None, 1e-8), vec![2]);
     let g = SignFlip::new(vec![0, 1]);
     assert_eq!(suspicious_paths(&results, Some(&g), 1e-8), vec![0, 2, 3]);
@@ -405,20 +300,11 @@ fn suspicious_paths_flags_failures_and_coinciding_end_points() {
 
 #[test]
 fn a_start_system_moves_to_new_generic_parameters() {
-    let r = monodromy_solve::<TwoConics, 2, 12>(&MonodromyOptions {
-        seed: 4,
-        ..Default::default()
-    })
-    .unwrap();
-    let start = StartSystem {
-        params: r.params,
-        solutions: r.solutions,
-        symmetry: None,
-    };
+    let r = monodromy_solve::<TwoConics, 2, 12>(&MonodromyOptions { seed: 4, ..Default::default() }).unwrap();
+    let start = StartSystem { params: r.params, solutions: r.solutions, symmetry: None };
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(8);
     let p = simhc::monodromy::random_complex_vector::<12>(&mut rng, 1.0);
-    let (moved, failed) =
-        move_start_system::<TwoConics, 2, 12>(&start, &p, &AllRootsOptions::default());
+    let (moved, failed) = move_start_system::<TwoConics, 2, 12>(&start, &p, &AllRootsOptions::default());
     assert_eq!((moved.solutions.len(), failed), (4, 0));
     assert_eq!(moved.params, p);
     assert!(moved.max_residual::<TwoConics>() < 1e-10);

@@ -7,9 +7,7 @@ mod tracker_support;
 
 use nalgebra::{SVector, Vector1, Vector2};
 use num_complex::Complex;
-use simhc::homotopy::{
-    random_gamma, to_complex, FixedSystem, ParameterHomotopy, SquaredUp, StraightLine,
-};
+use simhc::homotopy::{random_gamma, to_complex, FixedSystem, ParameterHomotopy, SquaredUp, StraightLine};
 use simhc::tracker::{newton, track, NewtonOptions, TrackError, Tracker, TrackerOptions};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -75,8 +73,7 @@ fn tracking_does_not_allocate() {
     assert_eq!(v.len(), 16);
     assert!(n >= 1, "counting allocator is not armed");
 
-    let options =
-        [TrackerOptions::default(), TrackerOptions::paper(0.05), TrackerOptions::single_path()];
+    let options = [TrackerOptions::default(), TrackerOptions::paper(0.05), TrackerOptions::single_path()];
 
     // Square system, real, parameter homotopy.
     let mut rng = rng(700);
@@ -123,9 +120,7 @@ fn tracking_does_not_allocate() {
             assert_eq!(n, 0, "{name}: {n} allocations");
         }
     }
-    let (r, n) = counted(|| {
-        newton(&FixedSystem::<Over3x2, f64, O_NP>::new(q1), &want, 1.0, &NewtonOptions::default())
-    });
+    let (r, n) = counted(|| newton(&FixedSystem::<Over3x2, f64, O_NP>::new(q1), &want, 1.0, &NewtonOptions::default()));
     assert!(r.unwrap().converged);
     assert_eq!(n, 0, "newton: {n} allocations");
 
@@ -149,8 +144,7 @@ fn tracking_does_not_allocate() {
     });
     assert_eq!(results, 6);
     assert_eq!(n, 0, "complex gamma trick: {n} allocations");
-    let detour =
-        ParameterHomotopy::<Quad4, Complex<f64>, Q4_NP>::with_complex_detour(&p0, &p1, 0.3, 11);
+    let detour = ParameterHomotopy::<Quad4, Complex<f64>, Q4_NP>::with_complex_detour(&p0, &p1, 0.3, 11);
     let cx0 = to_complex(&x0);
     let (r, n) = counted(|| track(&detour, &cx0, &TrackerOptions::default()));
     assert!(r.is_ok());
@@ -162,9 +156,7 @@ fn tracking_does_not_allocate() {
     assert!(matches!(r, Err(TrackError::StepSizeTooSmall { .. })));
     assert_eq!(n, 0, "failing path: {n} allocations");
     // Drag steps over the fold.
-    let (r, n) = counted(|| {
-        track(&fold, &Vector1::new(-(3.0f64.sqrt())), &TrackerOptions::single_path()).map(|r| r.stats)
-    });
+    let (r, n) = counted(|| track(&fold, &Vector1::new(-(3.0f64.sqrt())), &TrackerOptions::single_path()).map(|r| r.stats));
     assert!(r.map_or(true, |s| s.drag_steps > 0));
     assert_eq!(n, 0, "drag steps: {n} allocations");
 }

@@ -4,10 +4,7 @@
 mod tracker_support;
 
 use nalgebra::{SMatrix, SVector, Vector1};
-use simhc::homotopy::{
-    random_gamma, real_if_close, to_complex, GammaTrick, Homotopy, ParameterHomotopy,
-    StraightLine,
-};
+use simhc::homotopy::{random_gamma, real_if_close, to_complex, GammaTrick, Homotopy, ParameterHomotopy, StraightLine};
 use simhc::scalar::C;
 use simhc::tracker::{track, TrackError, TrackerOptions};
 use tracker_support::*;
@@ -49,8 +46,7 @@ fn check_all_roots<H: Homotopy<C, 1, 1>>(name: &str, h: &H, c: &SVector<C, 7>, o
         let r = track(h, &Vector1::new(s), opts).unwrap_or_else(|e| panic!("{name} path {i}: {e}"));
         println!(
             "{name} path {i}: {:.6} accepted {} rejected {} newton {} residual {:e}",
-            r.x[0], r.stats.accepted_steps, r.stats.rejected_steps, r.stats.newton_iterations,
-            r.residual
+            r.x[0], r.stats.accepted_steps, r.stats.rejected_steps, r.stats.newton_iterations, r.residual
         );
         // |p(x)| small, relative to the size of the terms.
         let scale: f64 = (0..7).map(|k| c[k].norm() * r.x[0].norm().powi(k as i32)).sum();
@@ -129,12 +125,7 @@ fn complex_detour_returns_real_roots_on_fold_free_paths() {
     // Right branch of x^3 - 3x - a, from sqrt(3) at a = 0 to the real root at a = 3.
     let (a0, a1) = (SVector::<f64, 1>::new(0.0), SVector::<f64, 1>::new(3.0));
     let x0 = Vector1::new(3.0f64.sqrt());
-    let real = track(
-        &ParameterHomotopy::<FoldCubic, f64, 1>::new(a0, a1),
-        &x0,
-        &TrackerOptions::default(),
-    )
-    .unwrap();
+    let real = track(&ParameterHomotopy::<FoldCubic, f64, 1>::new(a0, a1), &x0, &TrackerOptions::default()).unwrap();
     let detour = ParameterHomotopy::<FoldCubic, C, 1>::with_complex_detour(&a0, &a1, 0.5, 9);
     let r = track(&detour, &to_complex(&x0), &TrackerOptions::default()).unwrap();
     let back = real_if_close(&r.x, 1e-10).expect("real end point");

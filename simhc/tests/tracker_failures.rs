@@ -5,8 +5,7 @@ mod tracker_support;
 use nalgebra::{SMatrix, SVector, Vector1, Vector2, Vector3};
 use simhc::homotopy::{FixedSystem, Homotopy, ParameterHomotopy, SquaredUp, StraightLine};
 use simhc::tracker::{
-    newton, track, AdaptiveStep, DragStep, NewtonOptions, StepControl, TrackError, Tracker,
-    TrackerOptions, TrackerStatus,
+    newton, track, AdaptiveStep, DragStep, NewtonOptions, StepControl, TrackError, Tracker, TrackerOptions, TrackerStatus,
 };
 use tracker_support::*;
 
@@ -15,13 +14,7 @@ use tracker_support::*;
 struct SingularMidway;
 
 impl Homotopy<f64, 1, 1> for SingularMidway {
-    fn evaluate(
-        &self,
-        x: &SVector<f64, 1>,
-        t: f64,
-        h: &mut SVector<f64, 1>,
-        jx: &mut SMatrix<f64, 1, 1>,
-    ) {
+    fn evaluate(&self, x: &SVector<f64, 1>, t: f64, h: &mut SVector<f64, 1>, jx: &mut SMatrix<f64, 1, 1>) {
         h[0] = (1.0 - 2.0 * t) * (x[0] - 1.0 - t);
         jx[(0, 0)] = 1.0 - 2.0 * t;
     }
@@ -34,13 +27,7 @@ impl Homotopy<f64, 1, 1> for SingularMidway {
 struct PoleMidway;
 
 impl Homotopy<f64, 1, 1> for PoleMidway {
-    fn evaluate(
-        &self,
-        x: &SVector<f64, 1>,
-        t: f64,
-        h: &mut SVector<f64, 1>,
-        jx: &mut SMatrix<f64, 1, 1>,
-    ) {
+    fn evaluate(&self, x: &SVector<f64, 1>, t: f64, h: &mut SVector<f64, 1>, jx: &mut SMatrix<f64, 1, 1>) {
         h[0] = x[0] - 1.0 / (t - 0.5);
         jx[(0, 0)] = 1.0;
     }
@@ -102,10 +89,7 @@ fn singular_jacobian_at_start_and_on_the_path() {
 fn diverged_to_infinity_when_the_leading_coefficient_vanishes() {
     // (1-t) x^2 + t x - 1: at t = 1 the system is linear and one root has gone to infinity,
     // x(t) ~ -1 / (1 - t) on the path from x0 = -1.
-    let h = ParameterHomotopy::<Quadratic, f64, 3>::new(
-        Vector3::new(1.0, 0.0, -1.0),
-        Vector3::new(0.0, 1.0, -1.0),
-    );
+    let h = ParameterHomotopy::<Quadratic, f64, 3>::new(Vector3::new(1.0, 0.0, -1.0), Vector3::new(0.0, 1.0, -1.0));
     let e = track(&h, &Vector1::new(-1.0), &TrackerOptions::default()).unwrap_err();
     println!("{e}");
     assert!(matches!(e, TrackError::DivergedToInfinity { .. }), "{e:?}");
@@ -138,10 +122,7 @@ fn corrector_did_not_converge() {
     // x^2 - 1 -> x^2 + 1 in real arithmetic: the real path ends at the fold t = 1/2; the paper's
     // fixed schedule keeps accepting steps, and at t = 1 Newton on x^2 + 1 has no real root to
     // converge to.
-    let h = StraightLine::<Quadratic, f64, 3>::new(
-        Vector3::new(1.0, 0.0, -1.0),
-        Vector3::new(1.0, 0.0, 1.0),
-    );
+    let h = StraightLine::<Quadratic, f64, 3>::new(Vector3::new(1.0, 0.0, -1.0), Vector3::new(1.0, 0.0, 1.0));
     let opts = TrackerOptions { require_final_convergence: true, final_newton_iterations: 3, ..TrackerOptions::paper(0.05) };
     let e = track(&h, &Vector1::new(1.0), &opts).unwrap_err();
     assert_eq!(e, TrackError::CorrectorDidNotConverge { t: 1.0 });
@@ -208,11 +189,7 @@ fn no_panic_on_garbage() {
             uniform(rng, -3.0, 3.0)
         }
     };
-    let options = [
-        TrackerOptions::default(),
-        TrackerOptions::paper(0.05),
-        TrackerOptions { max_steps: 50, ..Default::default() },
-    ];
+    let options = [TrackerOptions::default(), TrackerOptions::paper(0.05), TrackerOptions { max_steps: 50, ..Default::default() }];
     let (mut ok, mut err) = (0, 0);
     for i in 0..300 {
         let share = [0.0, 0.02, 0.3][i % 3];
@@ -222,11 +199,7 @@ fn no_panic_on_garbage() {
         let line = StraightLine::<Over3x2, f64, O_NP>::new(p0, p1);
         let param = ParameterHomotopy::<Over3x2, f64, O_NP>::new(p0, p1);
         for opts in &options {
-            for res in [
-                track(&line, &x0, opts),
-                track(&param, &x0, opts),
-                track(&SquaredUp::new(line, 1), &x0, opts),
-            ] {
+            for res in [track(&line, &x0, opts), track(&param, &x0, opts), track(&SquaredUp::new(line, 1), &x0, opts)] {
                 match res {
                     Ok(r) => {
                         assert_eq!(r.t, 1.0);
@@ -253,14 +226,7 @@ fn drag_steps_jump_a_hysteresis_fold_like_the_paper() {
     // x^3 - 3x - a for a from -3 to 3: the only real root at a = -3 is on the left branch, which
     // folds at a = 2; beyond it the only real root is on the right branch (hysteresis).
     let a0 = Vector1::new(-3.0);
-    let x0 = newton(
-        &FixedSystem::<FoldCubic, f64, 1>::new(a0),
-        &Vector1::new(-2.0),
-        0.0,
-        &NewtonOptions::default(),
-    )
-    .unwrap()
-    .x;
+    let x0 = newton(&FixedSystem::<FoldCubic, f64, 1>::new(a0), &Vector1::new(-2.0), 0.0, &NewtonOptions::default()).unwrap().x;
     let h = ParameterHomotopy::<FoldCubic, f64, 1>::new(a0, Vector1::new(3.0));
     // The faithful tracker stops at the fold (a = 2 is t = 5/6) ...
     let e = track(&h, &x0, &TrackerOptions::default()).unwrap_err();

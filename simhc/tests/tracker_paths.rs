@@ -6,10 +6,7 @@ mod tracker_support;
 
 use nalgebra::{SVector, Vector1, Vector2};
 use simhc::homotopy::{FixedSystem, Homotopy, ParameterHomotopy, SquaredUp, StraightLine};
-use simhc::tracker::{
-    newton, solve_newton, track, NewtonOptions, Predictor, TrackResult, Tracker, TrackerOptions,
-    TrackerStatus,
-};
+use simhc::tracker::{newton, solve_newton, track, NewtonOptions, Predictor, TrackResult, Tracker, TrackerOptions, TrackerStatus};
 use tracker_support::*;
 
 /// The tracker settings every closed-form path must pass with.
@@ -36,10 +33,7 @@ fn hermite_predictor_needs_no_stage_factorizations() {
     // Small steps so that the path has many of them.
     let step = simhc::tracker::AdaptiveStep { max: 0.05, ..Default::default() };
     for points in [2u8, 3] {
-        let opts = TrackerOptions {
-            predictor: Predictor::Hermite { points },
-            ..TrackerOptions::adaptive(step)
-        };
+        let opts = TrackerOptions { predictor: Predictor::Hermite { points }, ..TrackerOptions::adaptive(step) };
         let r = track(&h, &s0, &opts).unwrap();
         assert_close("hermite", &r.x, &s1);
         let s = r.stats;
@@ -58,12 +52,7 @@ fn assert_close<const N: usize>(name: &str, got: &SVector<f64, N>, want: &SVecto
 fn report<const N: usize>(name: &str, r: &TrackResult<f64, N>) {
     println!(
         "{name}: accepted {} rejected {} newton {} factorizations {} residual {:e} accuracy {:e}",
-        r.stats.accepted_steps,
-        r.stats.rejected_steps,
-        r.stats.newton_iterations,
-        r.stats.factorizations,
-        r.residual,
-        r.accuracy
+        r.stats.accepted_steps, r.stats.rejected_steps, r.stats.newton_iterations, r.stats.factorizations, r.residual, r.accuracy
     );
 }
 
@@ -133,8 +122,7 @@ fn circle_line_pair(seed: u64) -> (SVector<f64, 6>, SVector<f64, 6>) {
         }
         let ok = (0..=200).all(|i| {
             let t = i as f64 / 200.0;
-            circle_line_intersections(&((1.0 - t) * p0 + t * p1))
-                .is_some_and(|[a, b]| (a - b).norm() > 0.2)
+            circle_line_intersections(&((1.0 - t) * p0 + t * p1)).is_some_and(|[a, b]| (a - b).norm() > 0.2)
         });
         if ok {
             return (p0, p1);
@@ -256,8 +244,7 @@ fn overdetermined_gauss_newton_and_squared_up() {
             report(name, &r);
             assert_close(name, &r.x, &want);
             assert!(r.residual < 1e-12, "full residual {:e}", r.residual);
-            let r =
-                track(&sq_param, &x0, &opts).unwrap_or_else(|e| panic!("{seed} sqp {name}: {e}"));
+            let r = track(&sq_param, &x0, &opts).unwrap_or_else(|e| panic!("{seed} sqp {name}: {e}"));
             assert_close(name, &r.x, &want);
             assert!(r.residual < 1e-12);
         }
@@ -326,16 +313,14 @@ fn plain_newton_and_gauss_newton() {
     assert!(r.converged);
     assert_close("newton", &r.x, &sol);
     // One iteration from a perturbed start is not enough.
-    let r = newton(&sys, &x0, 1.0, &NewtonOptions { max_iterations: 1, ..Default::default() })
-        .unwrap();
+    let r = newton(&sys, &x0, 1.0, &NewtonOptions { max_iterations: 1, ..Default::default() }).unwrap();
     assert!(!r.converged);
     assert_eq!(r.iterations, 1);
 
     let q = over_params(&mut rng);
     let sys = FixedSystem::<Over3x2, f64, O_NP>::new(q);
     let want = Vector2::new(q[15], q[16]);
-    let r = newton(&sys, &(want + Vector2::new(0.03, -0.02)), 1.0, &NewtonOptions::default())
-        .unwrap();
+    let r = newton(&sys, &(want + Vector2::new(0.03, -0.02)), 1.0, &NewtonOptions::default()).unwrap();
     assert!(r.converged);
     assert_close("gauss-newton", &r.x, &want);
     assert!(r.residual < 1e-12);

@@ -65,13 +65,7 @@ pub fn split_coefficients(inst: &Instance) -> CoefficientSplit {
 /// one-row table, row `r`'s with the row-0 parameters renamed to row `r`'s (and globals moved
 /// after all rows): then row `r`'s coefficients are `c[r * nc1 .. (r + 1) * nc1]` in the same
 /// order as the one-row kernel's.
-pub fn repeats_per_row(
-    full: &CoefficientSplit,
-    one: &CoefficientSplit,
-    inst: &Instance,
-    one_inst: &Instance,
-    row_len: usize,
-) -> bool {
+pub fn repeats_per_row(full: &CoefficientSplit, one: &CoefficientSplit, inst: &Instance, one_inst: &Instance, row_len: usize) -> bool {
     let (nx, nc1) = (inst.vars.nx() as Var, one.table.len());
     if full.table.len() != inst.rows * nc1 || one_inst.vars.nx() != inst.vars.nx() {
         return false;

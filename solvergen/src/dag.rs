@@ -185,8 +185,7 @@ impl Dag {
 
     fn horner_normalised(&mut self, p: &Poly, vars: &VarTable) -> (f64, NodeId) {
         let lead = p.terms.values().next().copied().unwrap_or(1.0);
-        let key: Vec<(Monomial, u64)> =
-            p.terms.iter().map(|(m, &c)| (m.clone(), (c / lead).to_bits())).collect();
+        let key: Vec<(Monomial, u64)> = p.terms.iter().map(|(m, &c)| (m.clone(), (c / lead).to_bits())).collect();
         if let Some(&id) = self.coefficients.get(&key) {
             return (lead, id);
         }
@@ -232,8 +231,7 @@ impl Dag {
                 self.signed_sum(vec![(1.0, Some(head)), (lead, r)])
             }
             _ => {
-                let terms: Vec<(f64, Option<NodeId>)> =
-                    p.terms.iter().map(|(m, &c)| (c, self.monomial(m, vars))).collect();
+                let terms: Vec<(f64, Option<NodeId>)> = p.terms.iter().map(|(m, &c)| (c, self.monomial(m, vars))).collect();
                 self.signed_sum(terms)
             }
         }
@@ -460,8 +458,7 @@ impl Dag {
         let dag = self;
         let live = dag.reachable(outputs);
         let len = dag.nodes.len();
-        let x_only: Vec<bool> =
-            dag.depends_on(|n| matches!(n, Node::P(_) | Node::Dp(_) | Node::C(_))).into_iter().map(|d| !d).collect();
+        let x_only: Vec<bool> = dag.depends_on(|n| matches!(n, Node::P(_) | Node::Dp(_) | Node::C(_))).into_iter().map(|d| !d).collect();
         let interior = |i: usize| !matches!(dag.nodes[i], Node::X(_) | Node::Const(_));
         // Slots: x-only interior nodes read by a parameter-dependent node, or outputs.
         let mut slot_of = vec![None; len];
@@ -539,8 +536,7 @@ impl Unexpanded {
     /// [`crate::lower::check`] first: this assumes a valid body.
     pub fn lower(decl: &Declaration, rows: usize, nx: usize) -> Self {
         let mut dag = Dag::default();
-        let (equations, vars, eqs_per_row, _) =
-            crate::lower::evaluate(&mut DagAlgebra { dag: &mut dag, nx }, None, decl, rows);
+        let (equations, vars, eqs_per_row, _) = crate::lower::evaluate(&mut DagAlgebra { dag: &mut dag, nx }, None, decl, rows);
         Self { dag, equations, vars, eqs_per_row }
     }
 }

@@ -346,10 +346,7 @@ fn parse_rows(cx: &mut Ctxt, c: &syn::ItemConst) -> Vec<(usize, Span)> {
 
 fn parse_equation_fn(cx: &mut Ctxt, f: &syn::ItemFn) -> Option<EquationFn> {
     if !f.sig.inputs.is_empty() {
-        cx.error_spanned_by(
-            &f.sig.inputs,
-            "equation functions take no arguments: unknowns and parameters are in scope by name",
-        );
+        cx.error_spanned_by(&f.sig.inputs, "equation functions take no arguments: unknowns and parameters are in scope by name");
     }
     let declared_count = match &f.sig.output {
         syn::ReturnType::Type(_, ty) => match &**ty {

@@ -84,11 +84,7 @@ impl Expanded {
 impl Lowered {
     /// Lowers a declaration that [`lower::check`] and the size checks accepted.
     pub fn new(decl: &decl::Declaration) -> Self {
-        let counts: Vec<usize> = if decl.row_fields.is_empty() {
-            vec![0]
-        } else {
-            decl.rows.iter().map(|&(n, _)| n).collect()
-        };
+        let counts: Vec<usize> = if decl.row_fields.is_empty() { vec![0] } else { decl.rows.iter().map(|&(n, _)| n).collect() };
         let instances: Vec<Expanded> = counts.iter().map(|&n| Expanded::new(decl, n)).collect();
         let one_row = instances.iter().any(|e| e.instance.rows >= 2).then(|| {
             let expanded = Expanded::new(decl, 1);

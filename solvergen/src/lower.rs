@@ -119,9 +119,7 @@ impl<E: Clone> Value<E> {
         match self {
             Value::Scalar(p) => Value::Scalar(f(p)),
             Value::Vector(v) => Value::Vector(v.iter().map(f).collect()),
-            Value::Matrix { rows, cols, data } => {
-                Value::Matrix { rows: *rows, cols: *cols, data: data.iter().map(f).collect() }
-            }
+            Value::Matrix { rows, cols, data } => Value::Matrix { rows: *rows, cols: *cols, data: data.iter().map(f).collect() },
             Value::Poison => Value::Poison,
         }
     }
@@ -182,13 +180,7 @@ pub struct Instance {
     pub global_eqs: usize,
 }
 
-fn field_value<A: Algebra>(
-    alg: &mut A,
-    field: &Field,
-    prefix: &str,
-    vars: &mut Vec<String>,
-    offset: usize,
-) -> (Value<A::E>, Vec<Var>) {
+fn field_value<A: Algebra>(alg: &mut A, field: &Field, prefix: &str, vars: &mut Vec<String>, offset: usize) -> (Value<A::E>, Vec<Var>) {
     let name = field.ident.to_string();
     let mut new_var = |label: String| {
         let v = (offset + vars.len()) as Var;
@@ -206,8 +198,7 @@ fn field_value<A: Algebra>(
             (Value::Vector(vs.iter().map(|&v| alg.var(v)).collect()), vs)
         }
         Shape::Matrix(r, c) => {
-            let vs: Vec<Var> =
-                (0..r * c).map(|k| new_var(format!("{name}[{}][{}]", k / c, k % c))).collect();
+            let vs: Vec<Var> = (0..r * c).map(|k| new_var(format!("{name}[{}][{}]", k / c, k % c))).collect();
             (Value::Matrix { rows: r, cols: c, data: vs.iter().map(|&v| alg.var(v)).collect() }, vs)
         }
         Shape::Sym(n) => {
@@ -437,12 +428,11 @@ impl<A: Algebra> Evaluator<'_, '_, A> {
                     (Value::Vector(a), Value::Vector(c)) if a.len() == c.len() => {
                         Value::Vector(a.iter().zip(c).map(|(a, c)| f(a, c)).collect())
                     }
-                    (Value::Matrix { rows, cols, data: a }, Value::Matrix { rows: r2, cols: c2, data: c })
-                        if rows == r2 && cols == c2 =>
-                    {
+                    (Value::Matrix { rows, cols, data: a }, Value::Matrix { rows: r2, cols: c2, data: c }) if rows == r2 && cols == c2 => {
                         Value::Matrix { rows: *rows, cols: *cols, data: a.iter().zip(c).map(|(a, c)| f(a, c)).collect() }
                     }
-                    _ => self.error(b, format!("cannot {} {} and {}", if sub { "subtract" } else { "add" }, lhs.type_name(), rhs.type_name())),
+                    _ => self
+                        .error(b, format!("cannot {} {} and {}", if sub { "subtract" } else { "add" }, lhs.type_name(), rhs.type_name())),
                 }
             }
             BinOp::Mul(_) => match (&lhs, &rhs) {
@@ -450,9 +440,7 @@ impl<A: Algebra> Evaluator<'_, '_, A> {
                 (Value::Matrix { rows, cols, data }, Value::Vector(v)) if *cols == v.len() => {
                     Value::Vector((0..*rows).map(|r| dot(self.alg, &data[r * cols..(r + 1) * cols], v)).collect())
                 }
-                (Value::Matrix { rows, cols, data: a }, Value::Matrix { rows: r2, cols: c2, data: c })
-                    if cols == r2 =>
-                {
+                (Value::Matrix { rows, cols, data: a }, Value::Matrix { rows: r2, cols: c2, data: c }) if cols == r2 => {
                     let mut out = Vec::with_capacity(rows * c2);
                     for i in 0..*rows {
                         for j in 0..*c2 {
@@ -462,7 +450,9 @@ impl<A: Algebra> Evaluator<'_, '_, A> {
                     }
                     Value::Matrix { rows: *rows, cols: *c2, data: out }
                 }
-                (Value::Vector(_), Value::Vector(_)) => self.error(b, format!("cannot multiply {} by {}: use `.dot(..)` or `.cross(..)`", lhs.type_name(), rhs.type_name())),
+                (Value::Vector(_), Value::Vector(_)) => {
+                    self.error(b, format!("cannot multiply {} by {}: use `.dot(..)` or `.cross(..)`", lhs.type_name(), rhs.type_name()))
+                }
                 _ => self.error(b, format!("cannot multiply {} by {}", lhs.type_name(), rhs.type_name())),
             },
             BinOp::BitXor(_) => self.error(op, "`^` is not a power in Rust; use `.powi(n)`"),
@@ -481,14 +471,18 @@ impl<A: Algebra> Evaluator<'_, '_, A> {
             "dot" | "cross" => 1,
             "powi" => 1,
             "transpose" | "norm_squared" | "sum" => 0,
-            _ => return self.error(&m.method, format!("unknown method `{name}`; supported: dot, cross, transpose, powi, norm_squared, sum")),
+            _ => {
+                return self.error(&m.method, format!("unknown method `{name}`; supported: dot, cross, transpose, powi, norm_squared, sum"))
+            }
         };
         if args.len() != arity {
             return self.error(m, format!("`{name}` takes {arity} argument(s)"));
         }
         match (name.as_str(), &recv, args.first()) {
             ("dot", Value::Vector(a), Some(Value::Vector(c))) if a.len() == c.len() => Value::Scalar(dot(self.alg, a, c)),
-            ("dot", _, Some(other)) => self.error(m, format!("`dot` needs two vectors of the same length, found {} and {}", recv.type_name(), other.type_name())),
+            ("dot", _, Some(other)) => {
+                self.error(m, format!("`dot` needs two vectors of the same length, found {} and {}", recv.type_name(), other.type_name()))
+            }
             ("cross", Value::Vector(a), Some(Value::Vector(c))) if a.len() == 3 && c.len() == 3 => {
                 let mut minor = |i: usize, j: usize| {
                     let (l, r) = (self.alg.mul(&a[i], &c[j]), self.alg.mul(&a[j], &c[i]));
@@ -496,7 +490,9 @@ impl<A: Algebra> Evaluator<'_, '_, A> {
                 };
                 Value::Vector(vec![minor(1, 2), minor(2, 0), minor(0, 1)])
             }
-            ("cross", _, Some(other)) => self.error(m, format!("`cross` needs two 3-vectors, found {} and {}", recv.type_name(), other.type_name())),
+            ("cross", _, Some(other)) => {
+                self.error(m, format!("`cross` needs two 3-vectors, found {} and {}", recv.type_name(), other.type_name()))
+            }
             ("powi", Value::Scalar(a), Some(_)) => match m.args.first().and_then(int_literal) {
                 Some(n) => Value::Scalar(self.alg.pow(a, n)),
                 None => self.error(&m.args, "`powi` takes a non-negative integer literal"),
@@ -572,11 +568,7 @@ impl<A: Algebra> Evaluator<'_, '_, A> {
         let e = self.expr(&c.args[0]);
         let target = &c.args[1];
         let vars = match target {
-            syn::Expr::Path(p) => p
-                .path
-                .get_ident()
-                .and_then(|id| self.lookup(&id.to_string()))
-                .and_then(|b| b.unknown_vars.clone()),
+            syn::Expr::Path(p) => p.path.get_ident().and_then(|id| self.lookup(&id.to_string())).and_then(|b| b.unknown_vars.clone()),
             _ => None,
         };
         let Some(vars) = vars else {

@@ -187,10 +187,7 @@ impl Poly {
 
     /// Evaluates at a point given as a function of the variable index.
     pub fn eval(&self, value: impl Fn(Var) -> f64) -> f64 {
-        self.terms
-            .iter()
-            .map(|(m, &c)| c * m.0.iter().map(|&(v, e)| value(v).powi(e as i32)).product::<f64>())
-            .sum()
+        self.terms.iter().map(|(m, &c)| c * m.0.iter().map(|&(v, e)| value(v).powi(e as i32)).product::<f64>()).sum()
     }
 
     /// Whether any term involves a variable satisfying `pred`.

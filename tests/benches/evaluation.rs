@@ -20,9 +20,7 @@ fn evaluation(c: &mut Criterion) {
     c.bench_function("grps8 residual_jacobian f64", |b| {
         b.iter(|| grps::Grps8::residual_jacobian(black_box(&x), black_box(&p), &mut f, &mut j))
     });
-    c.bench_function("grps8 residual f64", |b| {
-        b.iter(|| grps::Grps8::residual(black_box(&x), black_box(&p), &mut f))
-    });
+    c.bench_function("grps8 residual f64", |b| b.iter(|| grps::Grps8::residual(black_box(&x), black_box(&p), &mut f)));
 
     let scene = UpnpSceneConfig::default().sample_seeded(seed).expect("valid config");
     let m = simhc_problems::upnp::geometry::upnp_cost_matrix(&scene.correspondences).expect("scene");

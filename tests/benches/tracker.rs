@@ -27,11 +27,7 @@ fn grps_paths(seed: u64) -> Vec<(GrpsLine, SVector<f64, 8>)> {
     while out.len() < PATHS {
         let Ok(scene) = GrpsSceneConfig::default().sample(&mut rng) else { continue };
         let r0 = random_rotation_perturbation(&scene.rotation, 20.0, &mut rng);
-        let x0 = grps::unknowns_of(
-            &r0,
-            &perturb_translation(&scene.translation, 0.1, &mut rng),
-            perturb_scale(scene.scale, 0.1, &mut rng),
-        );
+        let x0 = grps::unknowns_of(&r0, &perturb_translation(&scene.translation, 0.1, &mut rng), perturb_scale(scene.scale, 0.1, &mut rng));
         let Some(rows) = grps::rows_of::<8>(&scene.correspondences) else { continue };
         let p1 = grps::Grps8::params(&rows);
         let Ok(p0) = grps::Grps8.simulate(&x0, &p1) else { continue };

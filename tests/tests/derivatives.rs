@@ -227,7 +227,7 @@ fn check_param_lanes<P, const NX: usize, const NF: usize, const NP: usize, const
 where
     P: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP>,
 {
-    use simhc::lanes::{Lanes, C64x4, LANES};
+    use simhc::lanes::{C64x4, Lanes, LANES};
     let (Some(epr), Some((rows, _)), Some(layout)) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES) else {
         return false;
     };

@@ -32,7 +32,10 @@ mod mixed {
 fn layout_offsets_select_the_packed_values() {
     let layout = mixed::Mixed3::LAYOUT;
     assert_eq!((layout.rows, layout.per_row, layout.unknown_len(), layout.param_len()), (3, 6, 8, 3 * 6 + 7));
-    assert_eq!(layout.unknowns.iter().map(|f| (f.name, f.kind)).collect::<Vec<_>>(), [("q", FieldKind::Quat), ("t", FieldKind::Vector(3)), ("s", FieldKind::Scalar)]);
+    assert_eq!(
+        layout.unknowns.iter().map(|f| (f.name, f.kind)).collect::<Vec<_>>(),
+        [("q", FieldKind::Quat), ("t", FieldKind::Vector(3)), ("s", FieldKind::Scalar)]
+    );
 
     let rows: [mixed::Row; 3] = std::array::from_fn(|r| {
         let r = r as f64;

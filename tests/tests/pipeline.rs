@@ -7,8 +7,8 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{
-    Attempt, AttemptError, Canonicalize, Fallback, Generic, Method, Origin, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider,
-    StartSimulator, TargetParameters, Validator, Verdict,
+    Attempt, AttemptError, Canonicalize, Fallback, Generic, Method, Origin, Pipeline, PipelineError, PipelineOptions, StartError,
+    StartProvider, StartSimulator, TargetParameters, Validator, Verdict,
 };
 use simhc::{MinNormSimulator, SimulatorError};
 use simhc_problems::metrics::{quat_from_rotation, random_rotation_perturbation, rotation_error_deg, rotation_from_quat};
@@ -82,7 +82,11 @@ impl Validator<Data, 7> for AngleValidator {
             .map(|i| {
                 let y = r * d.p[i] + t;
                 let a = d.f[i].cross(&y).norm().atan2(d.f[i].dot(&y));
-                if a.is_nan() { f64::INFINITY } else { a }
+                if a.is_nan() {
+                    f64::INFINITY
+                } else {
+                    a
+                }
             })
             .fold(0.0, f64::max);
         Angle(worst)
@@ -212,7 +216,8 @@ fn the_fallback_runs_when_no_path_validates_and_is_validated_too() {
     let wrong = SVector::from([0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 5.0]);
     let fallback = Candidates(vec![wrong, truth]);
     let sim = simulator();
-    let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_fallback(&fallback);
+    let pipeline =
+        Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_fallback(&fallback);
     let solved = pipeline.solve(&data).expect("the true candidate validates");
     assert_eq!(solved.origin, Origin::Fallback { candidate: 1 });
     // The provider had no start (no attempt); the fallback counts as one.
@@ -222,7 +227,8 @@ fn the_fallback_runs_when_no_path_validates_and_is_validated_too() {
     assert!(matches!(off.solve(&data), Err(PipelineError::NoEndPoint { attempts: 0, last: Some(AttemptError::Start(_)) })));
     // Only wrong candidates: flagged, not returned.
     let only_wrong = Candidates(vec![wrong]);
-    let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_fallback(&only_wrong);
+    let pipeline =
+        Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_fallback(&only_wrong);
     assert!(matches!(pipeline.solve(&data), Err(PipelineError::NotValidated(b)) if b.origin == Origin::Fallback { candidate: 0 }));
 }
 
@@ -331,7 +337,8 @@ fn a_schedule_tries_methods_in_order_and_computes_each_start_once() {
         Attempt { provider: 1, method: Method::GaussNewton },
     ];
     let sim = simulator();
-    let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_schedule(&schedule);
+    let pipeline =
+        Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_schedule(&schedule);
     let solved = pipeline.solve(&data).expect("some attempt validates");
     println!("origin {:?} after {} attempts", solved.origin, solved.attempts);
     assert_eq!(counted.1.get(), 1, "one start per provider, shared by its methods");
@@ -350,16 +357,21 @@ fn other_simulators_are_named_by_index_in_the_schedule() {
     let near_start = Fixed("near", near(&truth, &r, 10.0, seed));
     let starts: [&dyn StartProvider<Data, 7>; 1] = [&near_start];
     // Other simulator 3 does not exist (skipped, not an attempt); 0 is the generic one.
-    let schedule = [Attempt { provider: 0, method: Method::OtherSimulatorHc(3) }, Attempt { provider: 0, method: Method::OtherSimulatorHc(0) }];
+    let schedule =
+        [Attempt { provider: 0, method: Method::OtherSimulatorHc(3) }, Attempt { provider: 0, method: Method::OtherSimulatorHc(0) }];
     let (sim, other) = (Broken, simulator());
     let others: [&dyn StartSimulator<Data, 7, 10, 18>; 1] = [&other];
-    let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_schedule(&schedule).with_other_simulators(&others);
+    let pipeline = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT)
+        .with_schedule(&schedule)
+        .with_other_simulators(&others);
     let solved = pipeline.solve(&data).expect("the other simulator's path validates");
     assert_eq!(solved.origin, Origin::Path { provider: 0, method: Method::OtherSimulatorHc(0) });
     assert!(rotation_error_deg(&pose(&solved.x).0, &r) < 1e-6);
     // The pipeline's own simulator fails on every start: no end point.
     let own = [Attempt { provider: 0, method: Method::SimulatorHc }];
-    let failing = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_schedule(&own).with_other_simulators(&others);
+    let failing = Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT)
+        .with_schedule(&own)
+        .with_other_simulators(&others);
     assert!(matches!(failing.solve(&data), Err(PipelineError::NoEndPoint { attempts: 1, last: Some(AttemptError::Simulator(_)) })));
 }
 

@@ -11,10 +11,12 @@
 use nalgebra::{Matrix3, SVector, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use simhc::tracker::{track, TrackerOptions};
 use simhc::homotopy::ParameterHomotopy;
+use simhc::tracker::{track, TrackerOptions};
 use simhc::MinNormSimulator;
-use simhc_problems::metrics::{quat_from_rotation, random_rotation_perturbation, random_unit_vector, rotation_error_deg, rotation_from_quat};
+use simhc_problems::metrics::{
+    quat_from_rotation, random_rotation_perturbation, random_unit_vector, rotation_error_deg, rotation_from_quat,
+};
 use simhc_problems::upnp::scene::random_rotation;
 
 #[simhc::simhc_problem]

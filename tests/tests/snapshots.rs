@@ -21,9 +21,7 @@ fn digest(file: &syn::File) -> String {
             let syn::Item::Impl(imp) = item else { continue };
             let ty = &imp.self_ty;
             let target = quote::quote!(#ty).to_string();
-            let tr = imp.trait_.as_ref().map(|(_, p, _)| {
-                p.segments.last().map(|s| s.ident.to_string()).unwrap_or_default()
-            });
+            let tr = imp.trait_.as_ref().map(|(_, p, _)| p.segments.last().map(|s| s.ident.to_string()).unwrap_or_default());
             for it in &imp.items {
                 if let syn::ImplItem::Fn(f) = it {
                     out.push_str(&format!(
@@ -64,9 +62,7 @@ fn grps_expansion_digest() {
             let syn::Item::Impl(imp) = it else { continue };
             let ty = &imp.self_ty;
             let is_grps7 = quote::quote!(#ty).to_string().contains("Grps7");
-            let is_problem = imp.trait_.as_ref().is_some_and(|(_, p, _)| {
-                p.segments.last().is_some_and(|s| s.ident == "Problem")
-            });
+            let is_problem = imp.trait_.as_ref().is_some_and(|(_, p, _)| p.segments.last().is_some_and(|s| s.ident == "Problem"));
             if is_grps7 && is_problem {
                 for f in &imp.items {
                     if let syn::ImplItem::Fn(f) = f {

@@ -6,10 +6,8 @@
 use std::path::{Path, PathBuf};
 
 /// The built-in problems: (declaration source, generated file), relative to the workspace root.
-pub const BUILT_INS: &[(&str, &str)] = &[
-    ("problems/src/upnp/system.rs", "generated/upnp.rs"),
-    ("problems/src/grps/system.rs", "generated/grps.rs"),
-];
+pub const BUILT_INS: &[(&str, &str)] =
+    &[("problems/src/upnp/system.rs", "generated/upnp.rs"), ("problems/src/grps/system.rs", "generated/grps.rs")];
 
 /// The command that refreshes `generated/` (named in the `@generated` header of its files).
 pub const REGENERATE_COMMAND: &str = "cargo run -p xtask -- regenerate";

@@ -11,8 +11,8 @@
 use nalgebra::{Matrix3, SVector, UnitQuaternion, Vector3, Vector4};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use simhc::pipeline::{Validator, Verdict};
 use simhc::pipeline::path::gauss_newton;
+use simhc::pipeline::{Validator, Verdict};
 use simhc_cli::{AllRoots, CanonicalFrame, DeclaredProblem, LearnedStartConfig, Refinement, SquareSubsystem};
 use simhc_problems::frames::bearing_frame;
 
@@ -127,7 +127,9 @@ pub fn scene(rng: &mut ChaCha8Rng, noise_px: f64) -> (Params, Unknowns) {
     let t = Vector3::from_fn(|_, _| rng.random_range(-2.0..2.0));
     let mut p = Params::zeros();
     let sigma = noise_px / FOCAL_PX;
-    let cameras = |rng: &mut ChaCha8Rng| -> Vec<Vector3<f64>> { (0..rng.random_range(2..=7)).map(|_| Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0))).collect() };
+    let cameras = |rng: &mut ChaCha8Rng| -> Vec<Vector3<f64>> {
+        (0..rng.random_range(2..=7)).map(|_| Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0))).collect()
+    };
     let (rig1, rig2) = (cameras(rng), cameras(rng));
     for i in 0..7 {
         let x = Vector3::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0), rng.random_range(2.0..20.0));

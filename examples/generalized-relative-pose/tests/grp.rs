@@ -1,7 +1,9 @@
 //! The problem added through the public API: its derivatives, its shipped start system and
 //! weights, and its four commands from the registration, run as a user runs them.
 
-use generalized_relative_pose::{canonicalize, errors, move_frames, scene, Coplanarity, GenRelPose, Grp6, Grp7, Params, Unknowns, START_SYSTEM};
+use generalized_relative_pose::{
+    canonicalize, errors, move_frames, scene, Coplanarity, GenRelPose, Grp6, Grp7, Params, Unknowns, START_SYSTEM,
+};
 use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -87,7 +89,13 @@ fn bench(extra: &[&str]) -> Vec<(String, f64, u64)> {
         .as_array()
         .expect("rows")
         .iter()
-        .map(|r| (r["method"].as_str().unwrap_or("").to_string(), r["success_pct"].as_f64().unwrap_or(-1.0), r["wrong"].as_u64().unwrap_or(u64::MAX)))
+        .map(|r| {
+            (
+                r["method"].as_str().unwrap_or("").to_string(),
+                r["success_pct"].as_f64().unwrap_or(-1.0),
+                r["wrong"].as_u64().unwrap_or(u64::MAX),
+            )
+        })
         .collect()
 }
 

@@ -152,18 +152,7 @@ impl GrpsFrame {
     /// The training target of a pose: `[R~ column 0, R~ column 1, t~, ln s~]`.
     pub fn target(&self, r: &Matrix3<f64>, t: &Vector3<f64>, s: f64) -> [f64; GRPS_OUTPUTS] {
         let (rc, tc, sc) = self.to_canonical(r, t, s);
-        [
-            rc[(0, 0)],
-            rc[(1, 0)],
-            rc[(2, 0)],
-            rc[(0, 1)],
-            rc[(1, 1)],
-            rc[(2, 1)],
-            tc.x,
-            tc.y,
-            tc.z,
-            sc.ln(),
-        ]
+        [rc[(0, 0)], rc[(1, 0)], rc[(2, 0)], rc[(0, 1)], rc[(1, 1)], rc[(2, 1)], tc.x, tc.y, tc.z, sc.ln()]
     }
 
     /// The pose `(R, t, s)` of the network's outputs (module docs), or `None` if the 6D

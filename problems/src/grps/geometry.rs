@@ -96,10 +96,7 @@ pub enum GrpsError {
 /// [`GrpsError::SingleCameraPair`], one central view as [`GrpsError::CentralView`].
 pub fn validate(corrs: &[GrpsCorrespondence]) -> Result<(), GrpsError> {
     if corrs.len() < GRPS_MIN_CORRESPONDENCES {
-        return Err(GrpsError::TooFewCorrespondences {
-            got: corrs.len(),
-            need: GRPS_MIN_CORRESPONDENCES,
-        });
+        return Err(GrpsError::TooFewCorrespondences { got: corrs.len(), need: GRPS_MIN_CORRESPONDENCES });
     }
     check_correspondences(corrs)?;
     let central1 = all_equal(corrs.iter().map(|c| c.v));
@@ -114,12 +111,7 @@ pub fn validate(corrs: &[GrpsCorrespondence]) -> Result<(), GrpsError> {
 
 /// The paper's constraint evaluated directly (no normalization of the bearings; it is linear in
 /// `f` and in `f'`): `t.(f x R f') - s f^T R [v']x f' + f^T [v]x R f'`.
-pub fn grps_residual_direct(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    s: f64,
-    c: &GrpsCorrespondence,
-) -> f64 {
+pub fn grps_residual_direct(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> f64 {
     let g = r * c.fp;
     t.dot(&c.f.cross(&g)) - s * c.f.dot(&(r * c.vp.cross(&c.fp))) + c.f.dot(&c.v.cross(&g))
 }
@@ -128,12 +120,7 @@ pub fn grps_residual_direct(
 /// `None` when `f` and `R f'` are parallel (sin of the angle below `1e-10`). With unit bearings
 /// `alpha` is the distance along `f` from `v` and `alpha'` along `R f'` from `s R v' + t`, both in
 /// view-1 units; negative values mean the point is behind that camera.
-pub fn triangulate_depths(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    s: f64,
-    c: &GrpsCorrespondence,
-) -> Option<(f64, f64)> {
+pub fn triangulate_depths(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> Option<(f64, f64)> {
     let g = r * c.fp;
     let cv = offset(r, t, s, c);
     depths(&c.f, &g, &cv)
@@ -166,12 +153,7 @@ pub struct GrpsSimulation {
 
 /// The simulated first-view ray of one correspondence under `(R, t, s)` (module docs), or `None`
 /// for a degenerate ray ([`GrpsError::Degenerate`]). No input checks.
-pub fn simulate_ray(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    s: f64,
-    c: &GrpsCorrespondence,
-) -> Option<(Vector3<f64>, TriangulationInfo)> {
+pub fn simulate_ray(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> Option<(Vector3<f64>, TriangulationInfo)> {
     let g = r * c.fp;
     let cv = offset(r, t, s, c);
     if let Some((alpha, alpha_prime)) = depths(&c.f, &g, &cv) {
@@ -180,24 +162,12 @@ pub fn simulate_ray(
         if n > 1e-12 * (alpha_prime.abs() * g.norm() + cv.norm()) {
             let behind_first = alpha < 0.0;
             let f = if behind_first { -d / n } else { d / n };
-            let info = TriangulationInfo {
-                alpha,
-                alpha_prime,
-                behind_first,
-                behind_second: alpha_prime < 0.0,
-                parallel: false,
-            };
+            let info = TriangulationInfo { alpha, alpha_prime, behind_first, behind_second: alpha_prime < 0.0, parallel: false };
             return Some((f, info));
         }
     }
     let f = project_direction(&c.f, &g.cross(&cv))?;
-    let info = TriangulationInfo {
-        alpha: f64::NAN,
-        alpha_prime: f64::NAN,
-        behind_first: false,
-        behind_second: false,
-        parallel: true,
-    };
+    let info = TriangulationInfo { alpha: f64::NAN, alpha_prime: f64::NAN, behind_first: false, behind_second: false, parallel: true };
     Some((f, info))
 }
 
@@ -205,19 +175,11 @@ pub fn simulate_ray(
 /// ray, so that `(R, t, s)` solves the returned correspondences exactly. Checks the pose and
 /// correspondences for non-finite values and zero bearings (not the count or the camera
 /// configuration: see [`validate`]).
-pub fn simulate_first_view(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    s: f64,
-    corrs: &[GrpsCorrespondence],
-) -> Result<GrpsSimulation, GrpsError> {
+pub fn simulate_first_view(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, corrs: &[GrpsCorrespondence]) -> Result<GrpsSimulation, GrpsError> {
     let mut correspondences = corrs.to_vec();
     let mut info = Vec::with_capacity(corrs.len());
     simulate_first_view_in_place(r, t, s, &mut correspondences, &mut info)?;
-    Ok(GrpsSimulation {
-        correspondences,
-        info,
-    })
+    Ok(GrpsSimulation { correspondences, info })
 }
 
 /// [`simulate_first_view`] overwriting `f` in place; `info` is cleared and refilled (its
@@ -244,12 +206,7 @@ pub fn simulate_first_view_in_place(
 /// `w = R f' x c` (`c = t + s R v' - v`), i.e. the unit vector closest to `f` that satisfies the
 /// constraint; `f / |f|` itself if `w` vanishes (every `f` satisfies it then). `None` if `f` is
 /// parallel to `w`. No input checks.
-pub fn project_ray(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    s: f64,
-    c: &GrpsCorrespondence,
-) -> Option<Vector3<f64>> {
+pub fn project_ray(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, c: &GrpsCorrespondence) -> Option<Vector3<f64>> {
     let g = r * c.fp;
     project_direction(&c.f, &g.cross(&offset(r, t, s, c)))
 }
@@ -319,11 +276,7 @@ fn check_pose(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64) -> Result<(), GrpsErro
 
 fn check_correspondences(corrs: &[GrpsCorrespondence]) -> Result<(), GrpsError> {
     for (index, c) in corrs.iter().enumerate() {
-        let all =
-            c.f.iter()
-                .chain(c.v.iter())
-                .chain(c.fp.iter())
-                .chain(c.vp.iter());
+        let all = c.f.iter().chain(c.v.iter()).chain(c.fp.iter()).chain(c.vp.iter());
         if !all.copied().all(f64::is_finite) {
             return Err(GrpsError::NonFinite { index });
         }

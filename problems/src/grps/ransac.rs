@@ -71,7 +71,12 @@ impl GrpsEstimator {
     /// outliers, 7-point samples, local optimization): 99.7 % with 4 hypotheses and 8 attempts
     /// per sample, 97 % with the solver's single answer.
     pub fn new(solver: GrpsSolver, sample_size: usize) -> Self {
-        Self { solver, sample_size: sample_size.clamp(7, 8), refine: LmOptions { max_iterations: 20, ..LmOptions::default() }, hypotheses: 4 }
+        Self {
+            solver,
+            sample_size: sample_size.clamp(7, 8),
+            refine: LmOptions { max_iterations: 20, ..LmOptions::default() },
+            hypotheses: 4,
+        }
     }
 }
 

@@ -122,13 +122,7 @@ fn angular_cost(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, corrs: &[GrpsCorresp
 
 /// Levenberg-Marquardt on the angular residuals of `corrs` (module docs) from `(r, t, s)`.
 /// Never fails: a non-finite step ends the loop with the last accepted pose.
-pub fn refine_pose(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    s: f64,
-    corrs: &[GrpsCorrespondence],
-    options: &LmOptions,
-) -> RefinedPose {
+pub fn refine_pose(r: &Matrix3<f64>, t: &Vector3<f64>, s: f64, corrs: &[GrpsCorrespondence], options: &LmOptions) -> RefinedPose {
     let (mut r, mut t, mut s) = (*r, *t, s);
     let mut cost = angular_cost(&r, &t, s, corrs);
     let mut lambda = options.initial_lambda;
@@ -193,10 +187,7 @@ pub fn refine_pose(
 /// The least-squares translation and scale for a given rotation: the constraint is linear in
 /// `(t, s)`, `(f x R f') . t - (f . R (v' x f')) s = -f . (v x R f')`; each row is divided by
 /// `|f| |R f'|`. `None` if the 4x4 normal equations are singular.
-pub fn translation_scale_for_rotation(
-    r: &Matrix3<f64>,
-    corrs: &[GrpsCorrespondence],
-) -> Option<(Vector3<f64>, f64)> {
+pub fn translation_scale_for_rotation(r: &Matrix3<f64>, corrs: &[GrpsCorrespondence]) -> Option<(Vector3<f64>, f64)> {
     let mut a = SMatrix::<f64, 4, 4>::zeros();
     let mut b = SVector::<f64, 4>::zeros();
     for c in corrs {

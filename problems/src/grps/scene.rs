@@ -41,8 +41,7 @@
 //! here.
 
 use crate::upnp::scene::{
-    add_bearing_noise, arr3, random_rotation, check_noise, from_rows3, rows3, sample_euler_rotation, sample_in_box,
-    SceneConfigError,
+    add_bearing_noise, arr3, check_noise, from_rows3, random_rotation, rows3, sample_euler_rotation, sample_in_box, SceneConfigError,
 };
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -85,12 +84,7 @@ impl GrpsScene {
     /// The same scene in other frames: view 1 `f' = V1 f`, `v' = V1 v + t1`; view 2
     /// `fp' = V2 fp`, `vp' = c V2 vp + t2` (`c` new view-2 units per old one). The ground truth
     /// changes to match: `R' = V1 R V2^T`, `s' = s / c`, `t' = V1 t + t1 - s' R' t2`.
-    pub fn transformed(
-        &self,
-        view1: (&Matrix3<f64>, &Vector3<f64>),
-        view2: (&Matrix3<f64>, &Vector3<f64>),
-        units2: f64,
-    ) -> GrpsScene {
+    pub fn transformed(&self, view1: (&Matrix3<f64>, &Vector3<f64>), view2: (&Matrix3<f64>, &Vector3<f64>), units2: f64) -> GrpsScene {
         let ((v1, t1), (v2, t2)) = (view1, view2);
         let rotation = v1 * self.rotation * v2.transpose();
         let scale = self.scale / units2;
@@ -133,12 +127,7 @@ pub struct GrpsSceneConfig {
 
 impl Default for GrpsSceneConfig {
     fn default() -> Self {
-        Self {
-            points: 8,
-            cameras_per_view: 3,
-            noise_px: 0.0,
-            focal_px: 800.0,
-        }
+        Self { points: 8, cameras_per_view: 3, noise_px: 0.0, focal_px: 800.0 }
     }
 }
 
@@ -165,29 +154,17 @@ impl GrpsSceneConfig {
         let r2 = sample_euler_rotation(rng, half_pi);
         let o2 = sample_in_box(rng, unit_lo, unit_hi);
         let scale = rng.random_range(0.1..=5.0);
-        let cams1: Vec<Vector3<f64>> = (0..self.cameras_per_view)
-            .map(|_| sample_in_box(rng, unit_lo, unit_hi))
-            .collect();
-        let cams2: Vec<Vector3<f64>> = (0..self.cameras_per_view)
-            .map(|_| sample_in_box(rng, unit_lo, unit_hi))
-            .collect();
+        let cams1: Vec<Vector3<f64>> = (0..self.cameras_per_view).map(|_| sample_in_box(rng, unit_lo, unit_hi)).collect();
+        let cams2: Vec<Vector3<f64>> = (0..self.cameras_per_view).map(|_| sample_in_box(rng, unit_lo, unit_hi)).collect();
         let mut correspondences = Vec::with_capacity(self.points);
         for i in 0..self.points {
-            let (v1, v2) = (
-                cams1[i % self.cameras_per_view],
-                cams2[i % self.cameras_per_view],
-            );
+            let (v1, v2) = (cams1[i % self.cameras_per_view], cams2[i % self.cameras_per_view]);
             loop {
                 let x = sample_in_box(rng, [-1.0, -1.0, 2.0], [1.0, 1.0, 20.0]);
                 let d1 = r1.transpose() * (x - o1) - v1;
                 let d2 = r2.transpose() * (x - o2) / scale - v2;
                 if d1.norm() >= 1e-6 && d2.norm() >= 1e-6 {
-                    correspondences.push(GrpsCorrespondence {
-                        f: d1.normalize(),
-                        v: v1,
-                        fp: d2.normalize(),
-                        vp: v2,
-                    });
+                    correspondences.push(GrpsCorrespondence { f: d1.normalize(), v: v1, fp: d2.normalize(), vp: v2 });
                     break;
                 }
             }
@@ -198,12 +175,7 @@ impl GrpsSceneConfig {
         for c in &mut correspondences {
             c.fp = add_bearing_noise(&c.fp, self.noise_px, self.focal_px, rng);
         }
-        Ok(GrpsScene {
-            correspondences,
-            rotation: r1.transpose() * r2,
-            translation: r1.transpose() * (o2 - o1),
-            scale,
-        })
+        Ok(GrpsScene { correspondences, rotation: r1.transpose() * r2, translation: r1.transpose() * (o2 - o1), scale })
     }
 
     /// [`Self::sample`] with `ChaCha8Rng::seed_from_u64(seed)`.
@@ -237,23 +209,13 @@ struct CorrespondenceRecord {
 
 impl From<CorrespondenceRecord> for GrpsCorrespondence {
     fn from(r: CorrespondenceRecord) -> Self {
-        Self {
-            f: r.f.into(),
-            v: r.v.into(),
-            fp: r.fp.into(),
-            vp: r.vp.into(),
-        }
+        Self { f: r.f.into(), v: r.v.into(), fp: r.fp.into(), vp: r.vp.into() }
     }
 }
 
 impl From<GrpsCorrespondence> for CorrespondenceRecord {
     fn from(c: GrpsCorrespondence) -> Self {
-        Self {
-            f: arr3(&c.f),
-            v: arr3(&c.v),
-            fp: arr3(&c.fp),
-            vp: arr3(&c.vp),
-        }
+        Self { f: arr3(&c.f), v: arr3(&c.v), fp: arr3(&c.fp), vp: arr3(&c.vp) }
     }
 }
 
@@ -267,23 +229,13 @@ struct SceneRecord {
 
 impl From<SceneRecord> for GrpsScene {
     fn from(r: SceneRecord) -> Self {
-        Self {
-            correspondences: r.correspondences,
-            rotation: from_rows3(&r.rotation),
-            translation: r.translation.into(),
-            scale: r.scale,
-        }
+        Self { correspondences: r.correspondences, rotation: from_rows3(&r.rotation), translation: r.translation.into(), scale: r.scale }
     }
 }
 
 impl From<GrpsScene> for SceneRecord {
     fn from(s: GrpsScene) -> Self {
-        Self {
-            correspondences: s.correspondences,
-            rotation: rows3(&s.rotation),
-            translation: arr3(&s.translation),
-            scale: s.scale,
-        }
+        Self { correspondences: s.correspondences, rotation: rows3(&s.rotation), translation: arr3(&s.translation), scale: s.scale }
     }
 }
 

@@ -61,8 +61,8 @@ use super::{Grps7, Grps8, Row};
 use crate::metrics::rotation_from_quat;
 use nalgebra::{Matrix3, Rotation3, SVector, Unit, Vector3};
 use simhc::pipeline::{
-    self, Attempt, Fallback, Generic, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator, TargetParameters,
-    Validator, Verdict,
+    self, Attempt, Fallback, Generic, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator,
+    TargetParameters, Validator, Verdict,
 };
 use simhc::regressor::{FoldedNetwork, RegressorError};
 use simhc::tracker::{solve_newton, NewtonOptions, TrackStats, TrackerOptions};
@@ -102,11 +102,7 @@ impl GrpsPose {
             return None;
         }
         let q = [x[0] / n, x[1] / n, x[2] / n, x[3] / n];
-        Some(Self {
-            rotation: rotation_from_quat(q),
-            translation: Vector3::new(x[4], x[5], x[6]),
-            scale: x[7],
-        })
+        Some(Self { rotation: rotation_from_quat(q), translation: Vector3::new(x[4], x[5], x[6]), scale: x[7] })
     }
 }
 
@@ -250,7 +246,13 @@ impl GrpsSolverOptions {
     /// returned whatever its residual (flagged by [`GrpsSolveError::NotValidated`] when it does
     /// not validate).
     pub fn single_path(simulator: SimulatorKind) -> Self {
-        Self { methods: [Some(Method::Hc(simulator)), None, None], restart_method: None, max_attempts: 1, all_roots_fallback: false, ..Self::default() }
+        Self {
+            methods: [Some(Method::Hc(simulator)), None, None],
+            restart_method: None,
+            max_attempts: 1,
+            all_roots_fallback: false,
+            ..Self::default()
+        }
     }
 
     /// The default retries with `simulator` first (then Gauss-Newton, then the other simulator).
@@ -413,14 +415,8 @@ pub struct GrpsSolver {
 }
 
 /// Six fixed unit axes for the perturbed starts (spread over the sphere).
-const AXES: [[f64; 3]; 6] = [
-    [0.577, 0.577, 0.577],
-    [-0.577, -0.577, 0.577],
-    [0.577, -0.577, -0.577],
-    [-0.577, 0.577, -0.577],
-    [1.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0],
-];
+const AXES: [[f64; 3]; 6] =
+    [[0.577, 0.577, 0.577], [-0.577, -0.577, 0.577], [0.577, -0.577, -0.577], [-0.577, 0.577, -0.577], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
 
 impl GrpsSolver {
     /// The solver with the shipped regressor and default options.
@@ -529,7 +525,16 @@ impl GrpsSolver {
                 Origin::Fallback { .. } => (base_kind, Method::AllRoots),
             };
             let pose = GrpsPose::from_unknowns(&s.x)?;
-            Some(GrpsSolveReport { pose, prediction, validation: s.check, attempts: s.attempts, start, method, stats: s.stats, times: *times })
+            Some(GrpsSolveReport {
+                pose,
+                prediction,
+                validation: s.check,
+                attempts: s.attempts,
+                start,
+                method,
+                stats: s.stats,
+                times: *times,
+            })
         };
         match result {
             Ok(s) => match report(&s, times) {
@@ -560,14 +565,23 @@ impl GrpsSolver {
     {
         let o = &self.options;
         let providers: Vec<Hypothesis> = hypotheses.kinds.iter().map(|&kind| Hypothesis { set: hypotheses, kind }).collect();
-        let starts: Vec<&dyn StartProvider<[GrpsCorrespondence], 8>> = providers.iter().map(|h| h as &dyn StartProvider<[GrpsCorrespondence], 8>).collect();
+        let starts: Vec<&dyn StartProvider<[GrpsCorrespondence], 8>> =
+            providers.iter().map(|h| h as &dyn StartProvider<[GrpsCorrespondence], 8>).collect();
         let (target, geometric) = (FirstRows(params), GeometricSimulator(params));
         let generic = Generic(MinNormSimulator::<P>::new());
         let others: [&dyn StartSimulator<[GrpsCorrespondence], 8, NF, NP>; 1] = [&generic];
         let validator = GrpsValidator { accept_angle: o.accept_angle, plausible_angle: o.plausible_angle, max_behind: o.max_behind };
         let fallback = AllRootsFallback { base: hypotheses.base, newton: o.newton };
-        let options = PipelineOptions { tracker: o.tracker, extra_attempts: o.extra_attempts, fallback: o.all_roots_fallback && o.max_attempts > 1, newton: o.newton };
-        run(Pipeline::new(&target, &starts, &geometric, &validator).with_other_simulators(&others).with_fallback(&fallback).with_options(options))
+        let options = PipelineOptions {
+            tracker: o.tracker,
+            extra_attempts: o.extra_attempts,
+            fallback: o.all_roots_fallback && o.max_attempts > 1,
+            newton: o.newton,
+        };
+        run(Pipeline::new(&target, &starts, &geometric, &validator)
+            .with_other_simulators(&others)
+            .with_fallback(&fallback)
+            .with_options(options))
     }
 
     /// The start hypotheses and the attempts in order (module docs): `schedule[i].provider`
@@ -579,7 +593,8 @@ impl GrpsSolver {
         if base_kind == StartKind::Prediction {
             kinds.extend([StartKind::PredictedRotation, StartKind::Swapped, StartKind::SwappedRotation]);
         }
-        let mut schedule: Vec<Attempt> = (0..kinds.len()).flat_map(|provider| first.iter().map(move |&method| Attempt { provider, method })).collect();
+        let mut schedule: Vec<Attempt> =
+            (0..kinds.len()).flat_map(|provider| first.iter().map(move |&method| Attempt { provider, method })).collect();
         if let Some(method) = o.restart_method.and_then(Method::in_pipeline) {
             for k in 0..(o.restart_angles_deg.len() * AXES.len()) as u8 {
                 schedule.push(Attempt { provider: kinds.len(), method });
@@ -601,13 +616,19 @@ impl GrpsSolver {
         let (kinds, schedule) = self.schedule(StartKind::Prediction);
         let hypotheses = Hypotheses::new(self, self.predict_canonical(&canonical)?, kinds);
         let same = |a: &SVector<f64, 8>, b: &SVector<f64, 8>| match (GrpsPose::from_unknowns(a), GrpsPose::from_unknowns(b)) {
-            (Some(a), Some(b)) => (a.rotation - b.rotation).norm() <= 1e-6 && (a.translation - b.translation).norm() <= 1e-6 * (1.0 + a.translation.norm()),
+            (Some(a), Some(b)) => {
+                (a.rotation - b.rotation).norm() <= 1e-6 && (a.translation - b.translation).norm() <= 1e-6 * (1.0 + a.translation.norm())
+            }
             _ => false,
         };
         let found = if canonical.len() == 7 {
-            self.pipeline::<Grps7, 7, 8, 84, 266, _>(&hypotheses, Grps7::params, |p| p.with_schedule(&schedule).plausible_end_points(&canonical[..], max, same))
+            self.pipeline::<Grps7, 7, 8, 84, 266, _>(&hypotheses, Grps7::params, |p| {
+                p.with_schedule(&schedule).plausible_end_points(&canonical[..], max, same)
+            })
         } else {
-            self.pipeline::<Grps8, 8, 9, 96, 304, _>(&hypotheses, Grps8::params, |p| p.with_schedule(&schedule).plausible_end_points(&canonical[..], max, same))
+            self.pipeline::<Grps8, 8, 9, 96, 304, _>(&hypotheses, Grps8::params, |p| {
+                p.with_schedule(&schedule).plausible_end_points(&canonical[..], max, same)
+            })
         };
         let found = match found {
             Ok(found) => found,
@@ -729,7 +750,12 @@ impl<const N: usize, const NP: usize> TargetParameters<[GrpsCorrespondence], NP>
 struct GeometricSimulator<const N: usize, const NP: usize>(fn(&[Row; N]) -> SVector<f64, NP>);
 
 impl<const N: usize, const NF: usize, const NP: usize> StartSimulator<[GrpsCorrespondence], 8, NF, NP> for GeometricSimulator<N, NP> {
-    fn simulate(&self, corrs: &[GrpsCorrespondence], x0: &SVector<f64, 8>, _p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, SimulatorError> {
+    fn simulate(
+        &self,
+        corrs: &[GrpsCorrespondence],
+        x0: &SVector<f64, 8>,
+        _p: &SVector<f64, NP>,
+    ) -> Result<SVector<f64, NP>, SimulatorError> {
         let start = GrpsPose::from_unknowns(x0).ok_or(SimulatorError::NonFinite)?;
         geometric_start_params::<N, NP>(corrs, &start, self.0)
     }

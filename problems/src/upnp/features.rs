@@ -25,8 +25,8 @@
 //! `[p~, f~ / |f~|, v~]`. Output: the quaternion of `R~` (4 numbers, sign-invariant loss).
 
 use super::scene::UpnpCorrespondence;
-use crate::metrics::{quat_from_rotation, rotation_from_quat};
 use crate::frames::{bearing_frame, principal_axes};
+use crate::metrics::{quat_from_rotation, rotation_from_quat};
 use nalgebra::{Matrix3, Vector3};
 
 /// Numbers per input row of the UPnP regressor.

@@ -75,19 +75,10 @@ pub enum UpnpError {
 /// Checks count, finiteness and non-zero bearings.
 pub fn validate(corrs: &[UpnpCorrespondence]) -> Result<(), UpnpError> {
     if corrs.len() < UPNP_MIN_CORRESPONDENCES {
-        return Err(UpnpError::TooFewCorrespondences {
-            got: corrs.len(),
-            need: UPNP_MIN_CORRESPONDENCES,
-        });
+        return Err(UpnpError::TooFewCorrespondences { got: corrs.len(), need: UPNP_MIN_CORRESPONDENCES });
     }
     for (index, c) in corrs.iter().enumerate() {
-        if !c
-            .p
-            .iter()
-            .chain(c.f.iter())
-            .chain(c.v.iter())
-            .all(|x| x.is_finite())
-        {
+        if !c.p.iter().chain(c.f.iter()).chain(c.v.iter()).all(|x| x.is_finite()) {
             return Err(UpnpError::NonFinite { index });
         }
         if c.f.norm() <= ZERO_BEARING_NORM {
@@ -115,19 +106,7 @@ pub fn check_spread(corrs: &[UpnpCorrespondence]) -> Result<(), UpnpError> {
 /// `s(q) = [q0², q1², q2², q3², q0q1, q0q2, q0q3, q1q2, q1q3, q2q3, 1]` (no normalization).
 pub fn quat_monomials(q: [f64; 4]) -> SVector<f64, 11> {
     let [a, b, c, d] = q;
-    SVector::<f64, 11>::from([
-        a * a,
-        b * b,
-        c * c,
-        d * d,
-        a * b,
-        a * c,
-        a * d,
-        b * c,
-        b * d,
-        c * d,
-        1.0,
-    ])
+    SVector::<f64, 11>::from([a * a, b * b, c * c, d * d, a * b, a * c, a * d, b * c, b * d, c * d, 1.0])
 }
 
 /// `ds/dq` (11x4) of [`quat_monomials`]; the last row (the constant) is zero.
@@ -241,10 +220,7 @@ pub fn upnp_cost_matrix(corrs: &[UpnpCorrespondence]) -> Result<SMatrix<f64, 11,
 
 /// The translation minimizing the object-space cost for a given rotation:
 /// `t* = -(sum V_i)^-1 sum V_i (R p_i - v_i)`.
-pub fn translation_from_rotation(
-    r: &Matrix3<f64>,
-    corrs: &[UpnpCorrespondence],
-) -> Result<Vector3<f64>, UpnpError> {
+pub fn translation_from_rotation(r: &Matrix3<f64>, corrs: &[UpnpCorrespondence]) -> Result<Vector3<f64>, UpnpError> {
     validate(corrs)?;
     check_pose(r, &Vector3::zeros())?;
     let mut h = Matrix3::<f64>::zeros();
@@ -260,10 +236,7 @@ pub fn translation_from_rotation(
 /// `E(R, t) = sum_i ||V_i (R p_i + t - v_i)||²` for a fixed translation (no minimization, no
 /// validation; bearings are normalized, so a zero bearing gives NaN).
 pub fn object_space_cost(r: &Matrix3<f64>, t: &Vector3<f64>, corrs: &[UpnpCorrespondence]) -> f64 {
-    corrs
-        .iter()
-        .map(|c| (projector(&c.f) * (r * c.p + t - c.v)).norm_squared())
-        .sum()
+    corrs.iter().map(|c| (projector(&c.f) * (r * c.p + t - c.v)).norm_squared()).sum()
 }
 
 /// The UPnP cost `min_t E(R(q), t)` evaluated directly from the correspondences (not via `M`);
@@ -275,10 +248,7 @@ pub fn upnp_cost(q: [f64; 4], corrs: &[UpnpCorrespondence]) -> Result<f64, UpnpE
 /// The UPnP cost and its tangential gradient on the unit quaternion sphere at `q / |q|`, directly
 /// from the correspondences: with `e_i = V_i (R(q) p_i + t* - v_i)`, the envelope theorem gives
 /// `grad = 2 sum_i (Phi(p_i) ds/dq)^T e_i`, projected onto the tangent space of `q`.
-pub fn upnp_cost_gradient(
-    q: [f64; 4],
-    corrs: &[UpnpCorrespondence],
-) -> Result<(f64, [f64; 4]), UpnpError> {
+pub fn upnp_cost_gradient(q: [f64; 4], corrs: &[UpnpCorrespondence]) -> Result<(f64, [f64; 4]), UpnpError> {
     if !q.iter().all(|x| x.is_finite()) || q.iter().all(|x| *x == 0.0) {
         return Err(UpnpError::NonFinite { index: usize::MAX });
     }
@@ -298,11 +268,7 @@ pub fn upnp_cost_gradient(
 
 /// The paper's online simulator: the correspondences with each bearing replaced by
 /// `f_i' = normalize(R p_i + t - v_i)`, so that `(R, t)` solves them exactly.
-pub fn reproject(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    corrs: &[UpnpCorrespondence],
-) -> Result<Vec<UpnpCorrespondence>, UpnpError> {
+pub fn reproject(r: &Matrix3<f64>, t: &Vector3<f64>, corrs: &[UpnpCorrespondence]) -> Result<Vec<UpnpCorrespondence>, UpnpError> {
     let mut out = corrs.to_vec();
     reproject_in_place(r, t, &mut out)?;
     Ok(out)
@@ -310,11 +276,7 @@ pub fn reproject(
 
 /// [`reproject`] overwriting the bearings in place (no allocation). On error the slice may be
 /// partly updated.
-pub fn reproject_in_place(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    corrs: &mut [UpnpCorrespondence],
-) -> Result<(), UpnpError> {
+pub fn reproject_in_place(r: &Matrix3<f64>, t: &Vector3<f64>, corrs: &mut [UpnpCorrespondence]) -> Result<(), UpnpError> {
     check_pose(r, t)?;
     for (index, c) in corrs.iter_mut().enumerate() {
         if !c.p.iter().chain(c.v.iter()).all(|x| x.is_finite()) {
@@ -347,8 +309,7 @@ fn projector(f: &Vector3<f64>) -> Matrix3<f64> {
 /// `C = [Phi(p) | -v]` (3x11): `R(q) p - v = C s(q)` for unit `q`.
 fn c_matrix(c: &UpnpCorrespondence) -> SMatrix<f64, 3, 11> {
     let mut m = SMatrix::<f64, 3, 11>::zeros();
-    m.fixed_columns_mut::<10>(0)
-        .copy_from(&rotation_monomials(&c.p));
+    m.fixed_columns_mut::<10>(0).copy_from(&rotation_monomials(&c.p));
     m.set_column(10, &(-c.v));
     m
 }

@@ -35,12 +35,7 @@ fn cost(r: &Matrix3<f64>, t: &Vector3<f64>, corrs: &[UpnpCorrespondence]) -> f64
 
 /// Minimizes the object-space cost from `(r, t)`. Never fails: a non-finite step ends the
 /// iteration with the last finite pose.
-pub fn levenberg_marquardt(
-    r: &Matrix3<f64>,
-    t: &Vector3<f64>,
-    corrs: &[UpnpCorrespondence],
-    options: &LmOptions,
-) -> LmResult {
+pub fn levenberg_marquardt(r: &Matrix3<f64>, t: &Vector3<f64>, corrs: &[UpnpCorrespondence], options: &LmOptions) -> LmResult {
     let (mut r, mut t) = (*r, *t);
     let mut current = cost(&r, &t, corrs);
     let mut lambda = options.initial_lambda;

@@ -91,11 +91,7 @@ impl UpnpScene {
     /// The same scene seen in other frames: world points `p' = W p + t_w`, viewer data
     /// `f' = V f`, `v' = V v + t_v`, and the ground truth changed to match,
     /// `R' = V R W^T`, `t' = V (t - R W^T t_w) + t_v`.
-    pub fn transformed(
-        &self,
-        world: (&Matrix3<f64>, &Vector3<f64>),
-        viewer: (&Matrix3<f64>, &Vector3<f64>),
-    ) -> UpnpScene {
+    pub fn transformed(&self, world: (&Matrix3<f64>, &Vector3<f64>), viewer: (&Matrix3<f64>, &Vector3<f64>)) -> UpnpScene {
         let ((w, tw), (v, tv)) = (world, viewer);
         let rw = self.rotation * w.transpose();
         UpnpScene {
@@ -147,12 +143,7 @@ pub struct UpnpSceneConfig {
 
 impl Default for UpnpSceneConfig {
     fn default() -> Self {
-        Self {
-            cameras: 4,
-            points: 16,
-            noise_px: 2.0,
-            focal_px: 800.0,
-        }
+        Self { cameras: 4, points: 16, noise_px: 2.0, focal_px: 800.0 }
     }
 }
 
@@ -199,19 +190,12 @@ impl UpnpSceneConfig {
     /// Samples a scene with the points drawn in the box of `layout`; with `random_frames`, the
     /// world and viewer frames are then changed by random rigid motions
     /// ([`UpnpScene::random_frames`], drawn last: the scene of a seed is otherwise the same).
-    pub fn sample_with<R: Rng + ?Sized>(
-        &self,
-        layout: PointBox,
-        random_frames: bool,
-        rng: &mut R,
-    ) -> Result<UpnpScene, SceneConfigError> {
+    pub fn sample_with<R: Rng + ?Sized>(&self, layout: PointBox, random_frames: bool, rng: &mut R) -> Result<UpnpScene, SceneConfigError> {
         self.validate()?;
         let half_pi = std::f64::consts::FRAC_PI_2;
         let rotation = sample_euler_rotation(rng, half_pi);
         let translation = sample_in_box(rng, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]);
-        let centres: Vec<Vector3<f64>> = (0..self.cameras)
-            .map(|_| sample_in_box(rng, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]))
-            .collect();
+        let centres: Vec<Vector3<f64>> = (0..self.cameras).map(|_| sample_in_box(rng, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0])).collect();
         let mut correspondences: Vec<UpnpCorrespondence> = (0..self.points)
             .map(|i| {
                 let drawn = sample_in_box(rng, [-1.0, -1.0, 4.0], [1.0, 1.0, 8.0]);
@@ -228,11 +212,7 @@ impl UpnpSceneConfig {
         for c in &mut correspondences {
             c.f = add_bearing_noise(&c.f, self.noise_px, self.focal_px, rng);
         }
-        let scene = UpnpScene {
-            correspondences,
-            rotation,
-            translation,
-        };
+        let scene = UpnpScene { correspondences, rotation, translation };
         Ok(if random_frames { scene.random_frames(rng) } else { scene })
     }
 
@@ -261,12 +241,7 @@ pub fn sample_in_box<R: Rng + ?Sized>(rng: &mut R, lo: [f64; 3], hi: [f64; 3]) -
 /// `e1, e2 ~ U[-noise_px/sqrt 2, noise_px/sqrt 2]`, `(n1, n2)` an orthonormal tangent basis at
 /// `f`. `f` is normalized first. Always consumes two `f64` draws. A zero or non-finite `f` is
 /// returned unchanged (after the draws).
-pub fn add_bearing_noise<R: Rng + ?Sized>(
-    f: &Vector3<f64>,
-    noise_px: f64,
-    focal_px: f64,
-    rng: &mut R,
-) -> Vector3<f64> {
+pub fn add_bearing_noise<R: Rng + ?Sized>(f: &Vector3<f64>, noise_px: f64, focal_px: f64, rng: &mut R) -> Vector3<f64> {
     let u1: f64 = rng.random();
     let u2: f64 = rng.random();
     let n = f.norm();
@@ -336,21 +311,13 @@ struct CorrespondenceRecord {
 
 impl From<CorrespondenceRecord> for UpnpCorrespondence {
     fn from(r: CorrespondenceRecord) -> Self {
-        Self {
-            p: r.p.into(),
-            f: r.f.into(),
-            v: r.v.into(),
-        }
+        Self { p: r.p.into(), f: r.f.into(), v: r.v.into() }
     }
 }
 
 impl From<UpnpCorrespondence> for CorrespondenceRecord {
     fn from(c: UpnpCorrespondence) -> Self {
-        Self {
-            p: arr3(&c.p),
-            f: arr3(&c.f),
-            v: arr3(&c.v),
-        }
+        Self { p: arr3(&c.p), f: arr3(&c.f), v: arr3(&c.v) }
     }
 }
 
@@ -363,21 +330,13 @@ struct SceneRecord {
 
 impl From<SceneRecord> for UpnpScene {
     fn from(r: SceneRecord) -> Self {
-        Self {
-            correspondences: r.correspondences,
-            rotation: from_rows3(&r.rotation),
-            translation: r.translation.into(),
-        }
+        Self { correspondences: r.correspondences, rotation: from_rows3(&r.rotation), translation: r.translation.into() }
     }
 }
 
 impl From<UpnpScene> for SceneRecord {
     fn from(s: UpnpScene) -> Self {
-        Self {
-            correspondences: s.correspondences,
-            rotation: rows3(&s.rotation),
-            translation: arr3(&s.translation),
-        }
+        Self { correspondences: s.correspondences, rotation: rows3(&s.rotation), translation: arr3(&s.translation) }
     }
 }
 

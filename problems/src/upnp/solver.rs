@@ -20,6 +20,7 @@
 //! distribution the regressor was trained on. [`StartKind::Regressor`] is the learned start.
 //! [`UpnpSolverOptions::starts`] sets their order.
 
+use super::features::{UpnpFrame, UPNP_OUTPUTS, UPNP_ROW_WIDTH};
 use super::geometry::{check_spread, reproject_in_place, upnp_system, validate, UpnpError, UpnpSystem};
 use super::linear::{linear_rotation, LinearStartError};
 use super::scene::UpnpCorrespondence;
@@ -32,10 +33,9 @@ use simhc::pipeline::{
     AttemptError, Fallback, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator,
     TargetParameters, Validator, Verdict,
 };
-use simhc::SimulatorError;
-use super::features::{UpnpFrame, UPNP_OUTPUTS, UPNP_ROW_WIDTH};
 use simhc::regressor::{FoldedNetwork, RegressorError};
 use simhc::tracker::{TrackError, TrackStats, TrackerOptions};
+use simhc::SimulatorError;
 use std::time::Instant;
 use thiserror::Error;
 
@@ -326,7 +326,16 @@ impl UpnpSolver {
             let mut times = solved.times;
             times.target += checks;
             let start = [solved.start[0], solved.start[1], solved.start[2], solved.start[3]];
-            Ok(UpnpSolveReport { pose, start, start_kind, method, attempts: solved.attempts, validation: solved.check, stats: solved.stats, times })
+            Ok(UpnpSolveReport {
+                pose,
+                start,
+                start_kind,
+                method,
+                attempts: solved.attempts,
+                validation: solved.check,
+                stats: solved.stats,
+                times,
+            })
         };
         match pipeline.solve(&instance) {
             Ok(solved) => report(solved),

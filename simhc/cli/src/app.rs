@@ -93,7 +93,11 @@ impl App {
                 return Err(format!("problem `{name}` is registered twice"));
             }
         }
-        let mut app = Command::new(self.name).about(self.about).version(env!("CARGO_PKG_VERSION")).subcommand_required(true).arg_required_else_help(true);
+        let mut app = Command::new(self.name)
+            .about(self.about)
+            .version(env!("CARGO_PKG_VERSION"))
+            .subcommand_required(true)
+            .arg_required_else_help(true);
         for verb in Verb::ALL {
             let subs: Vec<Command> = self.problems.iter().filter_map(|p| p.command(verb)).collect();
             if !subs.is_empty() {

@@ -101,12 +101,21 @@ pub struct MonodromyArgs {
 impl MonodromyArgs {
     /// The settings of [`simhc_problems::start_systems::run_monodromy`].
     pub fn config(&self) -> simhc_problems::start_systems::MonodromyConfig {
-        simhc_problems::start_systems::MonodromyConfig { seed: self.seed, stall_loops: self.stall_loops, parallel: self.parallel, output: self.output.clone(), ..Default::default() }
+        simhc_problems::start_systems::MonodromyConfig {
+            seed: self.seed,
+            stall_loops: self.stall_loops,
+            parallel: self.parallel,
+            output: self.output.clone(),
+            ..Default::default()
+        }
     }
 
     /// `simhc monodromy <problem>`: parses the arguments, prints the seed, runs `monodromy` and
     /// prints its report.
-    pub fn run<R: std::fmt::Display, E: std::fmt::Display>(args: &ArgMatches, monodromy: impl FnOnce(&simhc_problems::start_systems::MonodromyConfig) -> Result<R, E>) -> Result<(), String> {
+    pub fn run<R: std::fmt::Display, E: std::fmt::Display>(
+        args: &ArgMatches,
+        monodromy: impl FnOnce(&simhc_problems::start_systems::MonodromyConfig) -> Result<R, E>,
+    ) -> Result<(), String> {
         let a: MonodromyArgs = parse(args)?;
         println!("monodromy: seed {}, stop after {} loops without a new solution", a.seed, a.stall_loops);
         let report = monodromy(&a.config()).map_err(|e| e.to_string())?;
@@ -170,7 +179,9 @@ impl Registration for Upnp {
             Verb::Bench => command::<UpnpBench>("upnp", "Generalized absolute pose (UPnP): the paper's Table 1"),
             Verb::Train => command::<TrainArgs>("upnp", "Train the UPnP regressor (defaults: the shipped weights' settings)"),
             Verb::Solve => command::<SolveArgs>("upnp", "Solve UPnP correspondences {\"correspondences\": [{\"p\", \"f\", \"v\"}, ..]}"),
-            Verb::Monodromy => command::<MonodromyArgs>("upnp", "UPnP as the square Lagrange system [q, lambda] (40 solutions modulo q -> -q)"),
+            Verb::Monodromy => {
+                command::<MonodromyArgs>("upnp", "UPnP as the square Lagrange system [q, lambda] (40 solutions modulo q -> -q)")
+            }
         })
     }
 
@@ -183,7 +194,10 @@ impl Registration for Upnp {
                     Some(path) => (read_trials(path)?, format!("file {}", path.display())),
                     None => (
                         upnp::sample_trials(&options)?,
-                        format!("sampled, seed {}, {:?} box, random frames {}, {} px", t.seed, options.layout, options.random_frames, options.scene.noise_px),
+                        format!(
+                            "sampled, seed {}, {:?} box, random frames {}, {} px",
+                            t.seed, options.layout, options.random_frames, options.scene.noise_px
+                        ),
                     ),
                 };
                 dump(&t.dump_trials, &scenes)?;
@@ -195,7 +209,10 @@ impl Registration for Upnp {
                     return print_json(&report);
                 }
                 print!("{}", stats::table(&report.rows));
-                println!("success: E_R < {} deg; errors over returned poses; times in microseconds per solve", report.thresholds.rotation_deg);
+                println!(
+                    "success: E_R < {} deg; errors over returned poses; times in microseconds per solve",
+                    report.thresholds.rotation_deg
+                );
                 println!("flag: returned flagged as not validated; wrong: returned unflagged yet over the threshold");
                 let [first, second, fallback] = report.shipped_attempts;
                 println!("shipped solver, validated at: first start {first}, second start {second}, all-roots fallback {fallback}");
@@ -229,9 +246,13 @@ impl Registration for Grps {
 
     fn command(&self, verb: Verb) -> Option<Command> {
         Some(match verb {
-            Verb::Bench => command::<GrpsBench>("grps", "Generalized relative pose and scale: stability, start errors, noise, RANSAC, figures"),
+            Verb::Bench => {
+                command::<GrpsBench>("grps", "Generalized relative pose and scale: stability, start errors, noise, RANSAC, figures")
+            }
             Verb::Train => command::<TrainArgs>("grps", "Train the GRPS regressor (defaults: the shipped weights' settings)"),
-            Verb::Solve => command::<SolveArgs>("grps", "Solve GRPS correspondences {\"correspondences\": [{\"f\", \"v\", \"fp\", \"vp\"}, ..]}"),
+            Verb::Solve => {
+                command::<SolveArgs>("grps", "Solve GRPS correspondences {\"correspondences\": [{\"f\", \"v\", \"fp\", \"vp\"}, ..]}")
+            }
             Verb::Monodromy => command::<MonodromyArgs>("grps", "GRPS with 7 correspondences (140 solutions modulo q -> -q)"),
         })
     }
@@ -242,7 +263,10 @@ impl Registration for Grps {
                 let GrpsBench { trials: t, grps: args } = parse(args)?;
                 let (scenes, source) = match &t.trials_file {
                     Some(path) => (read_trials(path)?, format!("file {}", path.display())),
-                    None => (grps::sample_trials(t.trials, t.seed, t.random_frames)?, format!("sampled, seed {}, random frames {}", t.seed, t.random_frames)),
+                    None => (
+                        grps::sample_trials(t.trials, t.seed, t.random_frames)?,
+                        format!("sampled, seed {}, random frames {}", t.seed, t.random_frames),
+                    ),
                 };
                 dump(&t.dump_trials, &scenes)?;
                 if !t.json {
@@ -295,7 +319,8 @@ impl Registration for TrackerBench {
     }
 
     fn command(&self, verb: Verb) -> Option<Command> {
-        (verb == Verb::Bench).then(|| command::<TrackerArgs>("tracker", "The tracker itself: step control, predictor and homotopy on UPnP and GRPS paths"))
+        (verb == Verb::Bench)
+            .then(|| command::<TrackerArgs>("tracker", "The tracker itself: step control, predictor and homotopy on UPnP and GRPS paths"))
     }
 
     fn run(&self, verb: Verb, args: &ArgMatches) -> Result<(), String> {

@@ -23,10 +23,11 @@ use simhc::all_roots::{solve_all_fast, AllRootsOptions, StartSystem};
 use simhc::layout::{FieldKind, Layout};
 use simhc::monodromy::SignFlip;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
-use simhc::pipeline::{
-    Attempt, Canonicalize, Fallback, Generic, LearnedStart, Method, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider, TargetParameters, Validator,
-};
 use simhc::pipeline::learned::NonFiniteParameter;
+use simhc::pipeline::{
+    Attempt, Canonicalize, Fallback, Generic, LearnedStart, Method, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider,
+    TargetParameters, Validator,
+};
 use simhc::regressor::FoldedNetwork;
 use simhc::{CoefficientForm, MinNormSimulator, ParamDerivative, ProblemInfo, ProblemLayout};
 use simhc_problems::start_systems::{run_monodromy, MonodromyConfig, MonodromyReport, StartSystemError, StartSystemFile};
@@ -107,7 +108,12 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     }
     /// The same scene seen in random frames (random rigid changes of every frame), for
     /// `bench --random-frames`; `None`: the problem has no such change.
-    fn move_frames(&self, _rng: &mut ChaCha8Rng, _p: &SVector<f64, ND>, _x: &SVector<f64, NX>) -> Option<(SVector<f64, ND>, SVector<f64, NX>)> {
+    fn move_frames(
+        &self,
+        _rng: &mut ChaCha8Rng,
+        _p: &SVector<f64, ND>,
+        _x: &SVector<f64, NX>,
+    ) -> Option<(SVector<f64, ND>, SVector<f64, NX>)> {
         None
     }
     /// All roots of a square subsystem: the pipeline's fallback, the All-roots bench row and
@@ -132,7 +138,8 @@ pub struct CanonicalFrame<const NX: usize> {
 /// A problem's [`DeclaredProblem::canonicalize`] as the pipeline's [`Canonicalize`].
 struct Canon<'a, S, const NF: usize, const NP: usize, const NC: usize>(&'a S);
 
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Canonicalize<SVector<f64, ND>, NX> for Canon<'_, S, NF, NP, NC>
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Canonicalize<SVector<f64, ND>, NX>
+    for Canon<'_, S, NF, NP, NC>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
@@ -195,7 +202,6 @@ where
         let start = start_json.map(|text| StartSystemFile::from_json(text).and_then(|f| f.start_system::<NX, NQ>())).transpose()?;
         Ok(Self { start, expected, options: AllRootsOptions::default(), problem: PhantomData })
     }
-
 }
 
 /// The sign symmetry `q -> -q` of the first quaternion unknown, if any.
@@ -220,7 +226,14 @@ where
     fn monodromy(&self, config: &MonodromyConfig) -> Result<MonodromyReport, StartSystemError> {
         let layout = Q::LAYOUT;
         let fields: Vec<&str> = layout.row.iter().map(|f| f.name).collect();
-        let description = format!("{} rows of {} scalars [{}], then {} global scalars, as {}::params", layout.rows, layout.per_row, fields.join(", "), layout.globals_len(), Q::NAME);
+        let description = format!(
+            "{} rows of {} scalars [{}], then {} global scalars, as {}::params",
+            layout.rows,
+            layout.per_row,
+            fields.join(", "),
+            layout.globals_len(),
+            Q::NAME
+        );
         run_monodromy::<Q, NX, NQ>(config, quaternion_symmetry(&layout), &description, self.expected)
     }
 }
@@ -308,7 +321,8 @@ struct Refined<'a, S, const NX: usize, const NF: usize, const NP: usize, const N
     problem: &'a S,
 }
 
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX> for Refined<'_, S, NX, NF, NP, NC, ND>
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
+    for Refined<'_, S, NX, NF, NP, NC, ND>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
@@ -439,7 +453,8 @@ fn print_json(value: &serde_json::Value) -> Result<(), String> {
 /// The errors and criterion of a problem as a bench [`Score`].
 struct ProblemScore<'a, S, const NF: usize, const NP: usize, const NC: usize, const ND: usize>(&'a S);
 
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Score<NX> for ProblemScore<'_, S, NF, NP, NC, ND>
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Score<NX>
+    for ProblemScore<'_, S, NF, NP, NC, ND>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
@@ -458,7 +473,8 @@ fn bench_json(rows: &[BenchRow]) -> serde_json::Value {
     serde_json::Value::Array(
         rows.iter()
             .map(|r| {
-                let errors: serde_json::Map<String, serde_json::Value> = r.median_errors.iter().map(|(n, e)| (n.to_string(), serde_json::json!(e))).collect();
+                let errors: serde_json::Map<String, serde_json::Value> =
+                    r.median_errors.iter().map(|(n, e)| (n.to_string(), serde_json::json!(e))).collect();
                 serde_json::json!({
                     "method": r.name, "trials": r.trials, "success_pct": r.success_pct(), "solved": r.solved, "wrong": r.wrong,
                     "flagged": r.flagged, "failed": r.failed, "median_errors": errors, "median_us": r.median_us, "mean_us": r.mean_us,
@@ -488,7 +504,11 @@ where
     fn learned_start(&self, weights: &Option<PathBuf>) -> Result<LearnedStart, String> {
         let bytes: std::borrow::Cow<'_, [u8]> = match weights {
             Some(path) => std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?.into(),
-            None => self.problem.weights().ok_or_else(|| format!("{} has no shipped weights: pass --weights FILE (made by `train {}`)", S::NAME, S::NAME))?.into(),
+            None => self
+                .problem
+                .weights()
+                .ok_or_else(|| format!("{} has no shipped weights: pass --weights FILE (made by `train {}`)", S::NAME, S::NAME))?
+                .into(),
         };
         let network = FoldedNetwork::from_bytes(&bytes).map_err(|e| format!("weights: {e}"))?;
         LearnedStart::new(network, S::Data::LAYOUT).map_err(|e| format!("weights: {e}"))
@@ -511,7 +531,12 @@ where
         })
         .map_err(|e| e.to_string())?;
         std::fs::write(&out, trained.start.network().to_bytes()).map_err(|e| format!("{}: {e}", out.display()))?;
-        println!("trained in {:.1} s; last epoch loss {:.4e}; weights: {}", trained.run.train_seconds, trained.run.epoch_losses.last().copied().unwrap_or(f64::NAN), out.display());
+        println!(
+            "trained in {:.1} s; last epoch loss {:.4e}; weights: {}",
+            trained.run.train_seconds,
+            trained.run.epoch_losses.last().copied().unwrap_or(f64::NAN),
+            out.display()
+        );
         Ok(())
     }
 
@@ -524,7 +549,10 @@ where
         for i in 0..a.trials {
             let (mut p, mut x) = self.problem.scene(&mut rng, a.noise);
             if a.random_frames {
-                (p, x) = self.problem.move_frames(&mut rng, &p, &x).ok_or_else(|| format!("{} has no random frames (DeclaredProblem::move_frames)", S::NAME))?;
+                (p, x) = self
+                    .problem
+                    .move_frames(&mut rng, &p, &x)
+                    .ok_or_else(|| format!("{} has no random frames (DeclaredProblem::move_frames)", S::NAME))?;
             }
             if a.permute {
                 p = permute_rows(&S::Data::LAYOUT, &p, &mut rng);
@@ -540,12 +568,18 @@ where
     fn bench(&self, a: BenchArgs) -> Result<(), String> {
         let (trials, source) = self.trials(&a)?;
         if let Some(path) = &a.dump_trials {
-            let file: Vec<Trial> = trials.iter().map(|(p, x)| Trial { params: p.as_slice().to_vec(), truth: x.as_slice().to_vec() }).collect();
-            std::fs::write(path, serde_json::to_string(&file).map_err(|e| e.to_string())?).map_err(|e| format!("{}: {e}", path.display()))?;
+            let file: Vec<Trial> =
+                trials.iter().map(|(p, x)| Trial { params: p.as_slice().to_vec(), truth: x.as_slice().to_vec() }).collect();
+            std::fs::write(path, serde_json::to_string(&file).map_err(|e| e.to_string())?)
+                .map_err(|e| format!("{}: {e}", path.display()))?;
         }
         let learned = self.learned_start(&a.weights)?;
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
-        let (target, simulator, validator) = (FirstRows::<S::Tracked>::new(S::Data::LAYOUT), Generic(MinNormSimulator::<S::Tracked>::new()), self.problem.validator(a.noise));
+        let (target, simulator, validator) = (
+            FirstRows::<S::Tracked>::new(S::Data::LAYOUT),
+            Generic(MinNormSimulator::<S::Tracked>::new()),
+            self.problem.validator(a.noise),
+        );
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
         let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [&learned, &refined, &random];
         let has_refine = S::REFINES;
@@ -588,10 +622,15 @@ where
             rows.push(row("All-roots HC (validated)", &[], true, &trials[..a.all_roots.min(trials.len())]));
         }
         if a.json {
-            return print_json(&serde_json::json!({"problem": S::NAME, "source": source, "seed": a.seed, "noise": a.noise, "rows": bench_json(&rows)}));
+            return print_json(
+                &serde_json::json!({"problem": S::NAME, "source": source, "seed": a.seed, "noise": a.noise, "rows": bench_json(&rows)}),
+            );
         }
         print!("{}", table(&rows));
-        println!("success: validated (rows after Pred Initial) and {}; errors: medians over returned estimates; times: microseconds per solve", S::ERRORS.join(", "));
+        println!(
+            "success: validated (rows after Pred Initial) and {}; errors: medians over returned estimates; times: microseconds per solve",
+            S::ERRORS.join(", ")
+        );
         if let [.., shipped, all] = rows.as_slice() {
             if all.name.starts_with("All-roots") && shipped.median_us > 0.0 {
                 println!("median time, All-roots / Shipped: {:.1}x", all.median_us / shipped.median_us);
@@ -606,17 +645,24 @@ where
         let p = simhc_problems::input::parse_layout_params(&layout, &text).map_err(|e| format!("{}: {e}", a.input.display()))?;
         let p = SVector::<f64, ND>::from_column_slice(&p);
         let learned = self.learned_start(&a.weights)?;
-        let (target, simulator, validator) = (FirstRows::<S::Tracked>::new(layout), Generic(MinNormSimulator::<S::Tracked>::new()), self.problem.validator(a.noise));
+        let (target, simulator, validator) =
+            (FirstRows::<S::Tracked>::new(layout), Generic(MinNormSimulator::<S::Tracked>::new()), self.problem.validator(a.noise));
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
         let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 2] = [&learned, &refined];
         let schedule = self.shipped_schedule();
         let fallback = self.problem.all_roots().filter(|r| r.has_start_system()).map(AllRootsFallback);
-        let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &validator).with_schedule(&schedule);
+        let mut pipeline =
+            Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &validator).with_schedule(&schedule);
         if let Some(f) = &fallback {
             pipeline = pipeline.with_fallback(f);
         }
         let unknowns = |x: &SVector<f64, NX>| -> serde_json::Value {
-            layout.unknowns.iter().map(|f| (f.name.to_string(), serde_json::json!(&x.as_slice()[f.offset..f.offset + f.kind.len()]))).collect::<serde_json::Map<_, _>>().into()
+            layout
+                .unknowns
+                .iter()
+                .map(|f| (f.name.to_string(), serde_json::json!(&x.as_slice()[f.offset..f.offset + f.kind.len()])))
+                .collect::<serde_json::Map<_, _>>()
+                .into()
         };
         match pipeline.solve_canonical(&Canon(&self.problem), &p) {
             Ok(s) => print_json(&serde_json::json!({
@@ -650,20 +696,27 @@ fn permute_rows<const NP: usize>(layout: &Layout, p: &SVector<f64, NP>, rng: &mu
 
 fn read_trials<const NP: usize, const NX: usize>(path: &Path) -> Result<Trials<NP, NX>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let trials: Vec<Trial> = serde_json::from_str(&text).map_err(|e| format!("{}: line {}, column {}: {e}", path.display(), e.line(), e.column()))?;
+    let trials: Vec<Trial> =
+        serde_json::from_str(&text).map_err(|e| format!("{}: line {}, column {}: {e}", path.display(), e.line(), e.column()))?;
     trials
         .into_iter()
         .enumerate()
         .map(|(i, t)| {
             if t.params.len() != NP || t.truth.len() != NX {
-                return Err(format!("{}: trial {i}: {} params and {} unknowns, expected {NP} and {NX}", path.display(), t.params.len(), t.truth.len()));
+                return Err(format!(
+                    "{}: trial {i}: {} params and {} unknowns, expected {NP} and {NX}",
+                    path.display(),
+                    t.params.len(),
+                    t.truth.len()
+                ));
             }
             Ok((SVector::from_column_slice(&t.params), SVector::from_column_slice(&t.truth)))
         })
         .collect()
 }
 
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Registration for Declared<S, NX, NF, NP, NC, ND>
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Registration
+    for Declared<S, NX, NF, NP, NC, ND>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
@@ -687,7 +740,12 @@ where
 
     fn run(&self, verb: Verb, args: &ArgMatches) -> Result<(), String> {
         let (data, tracked) = (S::Data::LAYOUT, S::Tracked::LAYOUT);
-        if data.param_len() != ND || tracked.param_len() != NP || tracked.unknown_len() != NX || data.unknown_len() != NX || tracked.rows > data.rows {
+        if data.param_len() != ND
+            || tracked.param_len() != NP
+            || tracked.unknown_len() != NX
+            || data.unknown_len() != NX
+            || tracked.rows > data.rows
+        {
             return Err(format!(
                 "{}: sizes do not match the instances: Data has {} parameters (ND = {ND}), Tracked {} (NP = {NP}), {} unknowns (NX = {NX}), {} rows of Data's {}",
                 S::NAME,
@@ -703,7 +761,8 @@ where
             Verb::Bench => self.bench(parse(args)?),
             Verb::Solve => self.solve(parse(args)?),
             Verb::Monodromy => {
-                let roots = self.problem.all_roots().ok_or_else(|| format!("{} has no square subsystem (DeclaredProblem::all_roots)", S::NAME))?;
+                let roots =
+                    self.problem.all_roots().ok_or_else(|| format!("{} has no square subsystem (DeclaredProblem::all_roots)", S::NAME))?;
                 MonodromyArgs::run(args, |config| roots.monodromy(config))
             }
         }

@@ -376,7 +376,8 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
         let (r, micros) = timed(|| {
             let p = predictor.predict(c8).ok()?;
             let rows = grps::rows_of::<8>(c8)?;
-            let n = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&p.unknowns(), &Grps8::params(&rows), &predictor.options.newton).ok()?;
+            let n = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&p.unknowns(), &Grps8::params(&rows), &predictor.options.newton)
+                .ok()?;
             GrpsPose::from_unknowns(&n.x)
         });
         pred_gn.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
@@ -430,7 +431,15 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
     }
 
     // Figure: log10 error histograms of the main rows.
-    let shown = ["Pred Initial", "Pred + LM (8 pts)", "Pred + Gauss-Newton (8 pts)", "Sim HC 7 pts, geometric, 1 path", "Sim HC 8 pts, geometric, 1 path", "Shipped 8 pts (retries+fallback)", "All-roots HC 7 pts (1 thread)"];
+    let shown = [
+        "Pred Initial",
+        "Pred + LM (8 pts)",
+        "Pred + Gauss-Newton (8 pts)",
+        "Sim HC 7 pts, geometric, 1 path",
+        "Sim HC 8 pts, geometric, 1 path",
+        "Shipped 8 pts (retries+fallback)",
+        "All-roots HC 7 pts (1 thread)",
+    ];
     let panel = |title: &str, unit: &str, get: fn(&Outcome) -> Option<f64>| Panel {
         title: title.to_string(),
         x_label: format!("log10 error ({unit})"),
@@ -488,7 +497,8 @@ fn starts(trials: &[GrpsScene], seed: u64, progress: bool) -> Result<Vec<StartCe
                     }
                     None => timed(|| {
                         let rows = grps::rows_of::<8>(c)?;
-                        let r = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&start.unknowns(), &Grps8::params(&rows), &newton).ok()?;
+                        let r =
+                            simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&start.unknowns(), &Grps8::params(&rows), &newton).ok()?;
                         GrpsPose::from_unknowns(&r.x)
                     }),
                 };
@@ -532,7 +542,9 @@ fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>)
                 let scene = config.sample(&mut rng).map_err(|e| e.to_string())?;
                 let truth = GrpsPose { rotation: scene.rotation, translation: scene.translation, scale: scene.scale };
                 let from_truth = grps::rows_of::<8>(&scene.correspondences).and_then(|rows| {
-                    let r = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&truth.unknowns(), &Grps8::params(&rows), &s.options.newton).ok()?;
+                    let r =
+                        simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&truth.unknowns(), &Grps8::params(&rows), &s.options.newton)
+                            .ok()?;
                     GrpsPose::from_unknowns(&r.x)
                 });
                 reference.outcomes.push(from_truth.map_or(failed(0.0), |p| outcome(&p, &scene, 0.0, None)));
@@ -631,7 +643,8 @@ fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<Ransac
         let mut refs: Vec<[f64; 3]> = Vec::new();
         for trial in 0..args.ransac_trials {
             let (scene, is_outlier) = ransac_scene(ratio, &mut rng)?;
-            let inliers: Vec<GrpsCorrespondence> = scene.correspondences.iter().zip(&is_outlier).filter(|(_, &o)| !o).map(|(c, _)| *c).collect();
+            let inliers: Vec<GrpsCorrespondence> =
+                scene.correspondences.iter().zip(&is_outlier).filter(|(_, &o)| !o).map(|(c, _)| *c).collect();
             let reference = refine_pose(&scene.rotation, &scene.translation, scene.scale, &inliers, &LmOptions::default());
             let rp = GrpsPose { rotation: reference.rotation, translation: reference.translation, scale: reference.scale };
             let ro = outcome(&rp, &scene, 0.0, None);
@@ -682,7 +695,10 @@ fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<Ransac
 pub fn text(report: &BenchReport) -> String {
     let mut out = String::new();
     if let Some(s) = &report.stability {
-        out.push_str(&format!("\nNumerical stability, noise-free, {} trials (All-roots HC on the first {}):\n", report.trials, s.all_roots_trials));
+        out.push_str(&format!(
+            "\nNumerical stability, noise-free, {} trials (All-roots HC on the first {}):\n",
+            report.trials, s.all_roots_trials
+        ));
         out.push_str(&crate::stats::table(&s.rows));
         out.push_str("success: E_R < 2 deg, E_t < 5 %, E_s < 5 %; errors over returned poses (flagged ones included); times in microseconds per solve, all retries included\n");
         for n in &s.notes {
@@ -715,7 +731,11 @@ pub fn text(report: &BenchReport) -> String {
             out.push_str(&format!("{:>6} d", a));
             for m in &methods {
                 let c = report.starts.iter().find(|c| c.start_deg == a && c.method == *m);
-                out.push_str(&format!(" {:>13.1} ({:>4.0} us)", c.map_or(f64::NAN, |c| c.success_pct), c.map_or(f64::NAN, |c| c.time_median_us)));
+                out.push_str(&format!(
+                    " {:>13.1} ({:>4.0} us)",
+                    c.map_or(f64::NAN, |c| c.success_pct),
+                    c.map_or(f64::NAN, |c| c.time_median_us)
+                ));
             }
             out.push('\n');
         }
@@ -724,7 +744,19 @@ pub fn text(report: &BenchReport) -> String {
         out.push_str("\nNoise resilience (the shipped solver, 8 pts; ref: Gauss-Newton on the same system from the ground truth):\n");
         out.push_str(&format!(
             "{:>7} {:>8} {:>7} {:>7} {:>8} {:>9} {:>9} {:>9} {:>9}   {:>9} {:>9} {:>9}  {}\n",
-            "cameras", "noise px", "trials", "errors", "succ%", "E_R med", "E_t med", "E_s med", "t med us", "ref E_R", "ref E_t", "ref E_s", "typed error"
+            "cameras",
+            "noise px",
+            "trials",
+            "errors",
+            "succ%",
+            "E_R med",
+            "E_t med",
+            "E_s med",
+            "t med us",
+            "ref E_R",
+            "ref E_t",
+            "ref E_s",
+            "typed error"
         ));
         for r in &report.noise {
             out.push_str(&format!(
@@ -755,7 +787,19 @@ pub fn text(report: &BenchReport) -> String {
         ));
         out.push_str(&format!(
             "{:>6} {:>7} {:>7} {:>9} {:>9} {:>9} {:>9} {:>8} {:>9} {:>9}   {:>8} {:>8} {:>8}\n",
-            "ratio", "trials", "succ%", "succ all%", "E_R mean", "E_t mean", "E_s mean", "iters", "t mean ms", "t med ms", "ref E_R", "ref E_t", "ref E_s"
+            "ratio",
+            "trials",
+            "succ%",
+            "succ all%",
+            "E_R mean",
+            "E_t mean",
+            "E_s mean",
+            "iters",
+            "t mean ms",
+            "t med ms",
+            "ref E_R",
+            "ref E_t",
+            "ref E_s"
         ));
         for r in &report.ransac {
             out.push_str(&format!(

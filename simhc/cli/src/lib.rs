@@ -20,11 +20,16 @@ mod upnp;
 
 pub use app::{progress_bar, App, Registration, Verb};
 pub use builtin::{Grps, TrackerBench, Upnp};
-pub use declared::{AllRoots, CanonicalFrame, Declared, DeclaredProblem, FirstRows, FirstRowsError, RandomStart, Refinement, SquareSubsystem};
+pub use declared::{
+    AllRoots, CanonicalFrame, Declared, DeclaredProblem, FirstRows, FirstRowsError, RandomStart, Refinement, SquareSubsystem,
+};
 pub use simhc_regressor::generic::LearnedStartConfig;
 pub use simhc_regressor::TrainConfig;
 
 /// The `simhc` application: the built-in problems and the tracker benchmark.
 pub fn simhc_app() -> App {
-    App::new("simhc", "Simulator HC: regression + online simulator + single-path homotopy continuation").register(Upnp).register(Grps).register(TrackerBench)
+    App::new("simhc", "Simulator HC: regression + online simulator + single-path homotopy continuation")
+        .register(Upnp)
+        .register(Grps)
+        .register(TrackerBench)
 }

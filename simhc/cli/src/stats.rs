@@ -119,9 +119,7 @@ impl MethodRecord {
         let es: Vec<f64> = self.outcomes.iter().filter_map(|o| o.scale_pct).collect();
         let times: Vec<f64> = self.outcomes.iter().map(|o| o.micros).collect();
         let splits: Vec<[f64; 3]> = self.outcomes.iter().filter_map(|o| o.split).collect();
-        let split_median_us = (!splits.is_empty()).then(|| {
-            [0, 1, 2].map(|k| median(&splits.iter().map(|s| s[k]).collect::<Vec<_>>()))
-        });
+        let split_median_us = (!splits.is_empty()).then(|| [0, 1, 2].map(|k| median(&splits.iter().map(|s| s[k]).collect::<Vec<_>>())));
         Summary {
             method: self.name.clone(),
             trials: n,
@@ -168,16 +166,9 @@ pub fn table(rows: &[Summary]) -> String {
             r.translation_median_pct
         ));
         if with_scale {
-            out.push_str(&format!(
-                " {:>9.3} {:>9.3}",
-                r.scale_mean_pct.unwrap_or(f64::NAN),
-                r.scale_median_pct.unwrap_or(f64::NAN)
-            ));
+            out.push_str(&format!(" {:>9.3} {:>9.3}", r.scale_mean_pct.unwrap_or(f64::NAN), r.scale_median_pct.unwrap_or(f64::NAN)));
         }
-        let split = r
-            .split_median_us
-            .map(|s| format!("{:.1} / {:.1} / {:.1}", s[0], s[1], s[2]))
-            .unwrap_or_default();
+        let split = r.split_median_us.map(|s| format!("{:.1} / {:.1} / {:.1}", s[0], s[1], s[2])).unwrap_or_default();
         out.push_str(&format!(" {:>10.1} {:>10.1}  {}\n", r.time_median_us, r.time_mean_us, split));
     }
     out

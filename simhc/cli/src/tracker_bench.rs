@@ -3,17 +3,16 @@
 //! paper's fixed schedule measured in the same run.
 
 use nalgebra::SVector;
+use num_complex::Complex;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use num_complex::Complex;
 use simhc::homotopy::{real_if_close, to_complex, CoefficientLine, Homotopy, ParameterHomotopy, SquaredUp};
 use simhc::tracker::{solve_newton, track, NewtonOptions, TrackerOptions};
 use simhc::OnlineSimulator;
 use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::metrics::{
-    perturb_scale, perturb_translation, quat_from_rotation, random_rotation_perturbation, rotation_error_deg,
-    rotation_from_quat,
+    perturb_scale, perturb_translation, quat_from_rotation, random_rotation_perturbation, rotation_error_deg, rotation_from_quat,
 };
 use simhc_problems::upnp::geometry::upnp_system;
 use simhc_problems::upnp::scene::UpnpSceneConfig;
@@ -97,7 +96,14 @@ where
 pub fn grps_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let config = GrpsSceneConfig::default();
-    let methods = ["paper fixed dt=0.05, straight line", "adaptive, straight line", "adaptive+drag (single_path), straight line", "adaptive+drag, parameter homotopy", "adaptive, squared-up parameter homotopy", "Gauss-Newton only (no homotopy)"];
+    let methods = [
+        "paper fixed dt=0.05, straight line",
+        "adaptive, straight line",
+        "adaptive+drag (single_path), straight line",
+        "adaptive+drag, parameter homotopy",
+        "adaptive, squared-up parameter homotopy",
+        "Gauss-Newton only (no homotopy)",
+    ];
     let mut outcomes: Vec<Vec<PathOutcome>> = methods.iter().map(|_| Vec::new()).collect();
     let mut done = 0;
     while done < paths {
@@ -231,7 +237,15 @@ pub fn table(rows: &[TrackerRow]) -> String {
     for r in rows {
         out.push_str(&format!(
             "{:<8} {:<46} {:>6} {:>7.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>9.3}\n",
-            r.problem, r.method, r.paths, r.success_pct, r.accepted_steps, r.rejected_steps, r.newton_iterations, r.time_median_us, r.time_ratio_to_paper
+            r.problem,
+            r.method,
+            r.paths,
+            r.success_pct,
+            r.accepted_steps,
+            r.rejected_steps,
+            r.newton_iterations,
+            r.time_median_us,
+            r.time_ratio_to_paper
         ));
     }
     out

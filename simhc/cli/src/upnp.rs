@@ -5,9 +5,7 @@ use nalgebra::Matrix3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use simhc_problems::metrics::{
-    quat_from_rotation, random_unit_quaternion, rotation_error_deg, rotation_from_quat, translation_error_pct,
-};
+use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, rotation_from_quat, translation_error_pct};
 use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
 use simhc_problems::upnp::geometry::{translation_from_rotation, upnp_system};
 use simhc_problems::upnp::refine::{levenberg_marquardt, LmOptions};
@@ -213,9 +211,7 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
         // All-roots HC: every path of the Lagrange system from the shipped start system, the
         // real solution closest to the ground truth kept (the paper's choice).
         let t0 = Instant::now();
-        let solved = upnp_system(corrs).ok().map(|sys| {
-            (sys, solve_upnp(&simhc_problems::upnp::params_of(&sys.m), &all_roots_options))
-        });
+        let solved = upnp_system(corrs).ok().map(|sys| (sys, solve_upnp(&simhc_problems::upnp::params_of(&sys.m), &all_roots_options)));
         let micros = us(t0.elapsed());
         let q_gt = quat_from_rotation(&scene.rotation);
         let best = solved.as_ref().and_then(|(sys, result)| {
@@ -237,10 +233,8 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let rows: Vec<Summary> = [pred, pred_lm, rand_hc, pred_hc, linear, linear_hc, full, all_roots]
-        .iter()
-        .map(|m| m.summary(&THRESHOLDS))
-        .collect();
+    let rows: Vec<Summary> =
+        [pred, pred_lm, rand_hc, pred_hc, linear, linear_hc, full, all_roots].iter().map(|m| m.summary(&THRESHOLDS)).collect();
     Ok(BenchReport { problem: "upnp", seed: options.seed, trials: trials.len(), source, thresholds: THRESHOLDS, rows, shipped_attempts })
 }
 

@@ -26,18 +26,14 @@ fn main() {
     let device = Device::flex();
     let model = upnp_embedded();
     let folded = upnp_folded_embedded();
-    let scene = UpnpSceneConfig::default()
-        .sample_seeded(5)
-        .expect("valid config");
+    let scene = UpnpSceneConfig::default().sample_seeded(5).expect("valid config");
     let rows = scene_sample(&scene).expect("valid scene").rows;
     let points = scene.correspondences.len();
     println!("network: {} parameters", folded.num_params());
     for round in 0..3 {
         let mut q = [0.0f64; 4];
         let folded_us = time_us(200_000, || {
-            folded
-                .forward(black_box(&rows), &mut q)
-                .expect("valid rows");
+            folded.forward(black_box(&rows), &mut q).expect("valid rows");
             black_box(&q);
         });
         let burn_us = time_us(5_000, || {
@@ -46,13 +42,7 @@ fn main() {
         let batch = 256;
         let many: Vec<f32> = (0..batch).flat_map(|_| rows.iter().copied()).collect();
         let batched_us = time_us(40, || {
-            black_box(predict_batch(
-                &model,
-                black_box(&many),
-                batch,
-                points,
-                &device,
-            ));
+            black_box(predict_batch(&model, black_box(&many), batch, points, &device));
         }) / batch as f64;
         println!(
             "round {round}: FoldedNetwork batch 1: {folded_us:.2} us; burn batch 1: {burn_us:.1} us; \

@@ -136,7 +136,8 @@ pub fn bench(learned: &LearnedStart, scenes: &[(Params, Unknowns)], seed: u64) -
     let random = RandomStart(std::cell::RefCell::new(ChaCha8Rng::seed_from_u64(seed)));
     let starts: [&dyn StartProvider<Params, 7>; 2] = [learned, &random];
     let run = |name: &str, schedule: &[Attempt]| {
-        let p = Pipeline::<Pnp, _, _, _, _, 7, 19, 36, { Pnp::NC }>::new(&target, &starts, &simulator, &Reprojection).with_schedule(schedule);
+        let p =
+            Pipeline::<Pnp, _, _, _, _, 7, 19, 36, { Pnp::NC }>::new(&target, &starts, &simulator, &Reprojection).with_schedule(schedule);
         bench_row(name, scenes, &correct, |d| p.solve(d))
     };
     let (pred, rand) = (0, 1);
@@ -163,7 +164,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "sample" => {
             let file = args.get(1).ok_or("usage: own_problem sample FILE [seed]")?;
             let (p, _) = scene(&mut ChaCha8Rng::seed_from_u64(seed_at(2)?));
-            let rows: Vec<String> = (0..6).map(|i| format!(r#"{{"f": {:?}, "p": {:?}}}"#, &p.as_slice()[6 * i..6 * i + 3], &p.as_slice()[6 * i + 3..6 * i + 6])).collect();
+            let rows: Vec<String> = (0..6)
+                .map(|i| format!(r#"{{"f": {:?}, "p": {:?}}}"#, &p.as_slice()[6 * i..6 * i + 3], &p.as_slice()[6 * i + 3..6 * i + 6]))
+                .collect();
             std::fs::write(file, format!("{{\"correspondences\": [\n  {}\n]}}\n", rows.join(",\n  ")))?;
             println!("wrote {file}");
             Ok(())
@@ -172,15 +175,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let file = args.get(1).ok_or("usage: own_problem solve FILE")?;
             let text = std::fs::read_to_string(file)?;
             let p = simhc_problems::input::parse_layout_params(&Pnp::LAYOUT, &text).map_err(|e| format!("{file}: {e}"))?;
-            let network = simhc::regressor::FoldedNetwork::from_bytes(&std::fs::read(WEIGHTS).map_err(|e| format!("{WEIGHTS}: {e} (run `train` first)"))?)?;
+            let network = simhc::regressor::FoldedNetwork::from_bytes(
+                &std::fs::read(WEIGHTS).map_err(|e| format!("{WEIGHTS}: {e} (run `train` first)"))?,
+            )?;
             let learned = LearnedStart::new(network, Pnp::LAYOUT)?;
             let (target, simulator) = (ParameterVector::<Pnp>::new(), Generic(MinNormSimulator::<Pnp>::new()));
             let starts: [&dyn StartProvider<Params, 7>; 1] = [&learned];
             let schedule = [Attempt { provider: 0, method: Method::GaussNewton }, Attempt { provider: 0, method: Method::SimulatorHc }];
-            let pipeline = Pipeline::<Pnp, _, _, _, _, 7, 19, 36, { Pnp::NC }>::new(&target, &starts, &simulator, &Reprojection).with_schedule(&schedule);
+            let pipeline = Pipeline::<Pnp, _, _, _, _, 7, 19, 36, { Pnp::NC }>::new(&target, &starts, &simulator, &Reprojection)
+                .with_schedule(&schedule);
             let solved = pipeline.solve(&Params::from_column_slice(&p)).map_err(|e| format!("{file}: {e}"))?;
             let x = solved.x;
-            println!("{{\"q\": {:?}, \"t\": {:?}, \"validated\": true, \"largest_angle_rad\": {:e}}}", &x.as_slice()[..4], &x.as_slice()[4..], solved.check.1);
+            println!(
+                "{{\"q\": {:?}, \"t\": {:?}, \"validated\": true, \"largest_angle_rad\": {:e}}}",
+                &x.as_slice()[..4],
+                &x.as_slice()[4..],
+                solved.check.1
+            );
             Ok(())
         }
         other => Err(format!("unknown command `{other}`: train [seed] | sample FILE [seed] | solve FILE").into()),

@@ -63,13 +63,7 @@ impl InMemoryDataset {
     /// Builds `count` samples by calling `sample(i)` for `i = 0..count` in order (so a seeded
     /// RNG captured by the closure gives a reproducible data set). Every sample must have
     /// `points * channels` finite row numbers and `target_width` finite target numbers.
-    pub fn from_fn<F>(
-        count: usize,
-        points: usize,
-        channels: usize,
-        target_width: usize,
-        mut sample: F,
-    ) -> Result<Self, DataError>
+    pub fn from_fn<F>(count: usize, points: usize, channels: usize, target_width: usize, mut sample: F) -> Result<Self, DataError>
     where
         F: FnMut(usize) -> Sample,
     {
@@ -79,18 +73,10 @@ impl InMemoryDataset {
         for index in 0..count {
             let s = sample(index);
             if s.rows.len() != row_len {
-                return Err(DataError::RowSize {
-                    index,
-                    got: s.rows.len(),
-                    expected: row_len,
-                });
+                return Err(DataError::RowSize { index, got: s.rows.len(), expected: row_len });
             }
             if s.target.len() != target_width {
-                return Err(DataError::TargetSize {
-                    index,
-                    got: s.target.len(),
-                    expected: target_width,
-                });
+                return Err(DataError::TargetSize { index, got: s.target.len(), expected: target_width });
             }
             if s.rows.iter().chain(&s.target).any(|v| !v.is_finite()) {
                 return Err(DataError::NonFinite { index });
@@ -98,13 +84,7 @@ impl InMemoryDataset {
             inputs.extend_from_slice(&s.rows);
             targets.extend_from_slice(&s.target);
         }
-        Ok(Self {
-            points,
-            channels,
-            target_width,
-            inputs,
-            targets,
-        })
+        Ok(Self { points, channels, target_width, inputs, targets })
     }
 
     /// Number of samples.

@@ -99,7 +99,8 @@ where
     let mut targets: Vec<Vec<f64>> = Vec::with_capacity(config.samples);
     for index in 0..config.samples {
         let (p, mut x) = sample(&mut rng);
-        let check = |what, got, expected| if got == expected { Ok(()) } else { Err(LearnedStartError::Length { index, what, got, expected }) };
+        let check =
+            |what, got, expected| if got == expected { Ok(()) } else { Err(LearnedStartError::Length { index, what, got, expected }) };
         check("parameters", p.len(), layout.param_len())?;
         check("unknowns", x.len(), nx)?;
         let mut rows = vec![0.0f32; rows_n * width];
@@ -123,7 +124,8 @@ where
     let data = InMemoryDataset::from_fn(config.samples, rows_n, width, nx, |_| {
         let i = next;
         next += 1;
-        let rows = inputs[i].chunks_exact(width).flat_map(|c| c.iter().enumerate().map(|(k, v)| in_std.apply(k, f64::from(*v)) as f32)).collect();
+        let rows =
+            inputs[i].chunks_exact(width).flat_map(|c| c.iter().enumerate().map(|(k, v)| in_std.apply(k, f64::from(*v)) as f32)).collect();
         let target = targets[i].iter().enumerate().map(|(k, v)| out_std.apply(k, *v) as f32).collect();
         Sample { rows, target }
     })?;
@@ -131,9 +133,8 @@ where
     let quats: Vec<usize> = layout.unknowns.iter().filter(|f| f.kind == FieldKind::Quat).map(|f| f.offset).collect();
     let others: Vec<(usize, usize)> =
         layout.unknowns.iter().filter(|f| f.kind != FieldKind::Quat).map(|f| (f.offset, f.kind.len())).collect();
-    let model = RegressorConfig::new(width, config.point_widths.clone(), config.head_widths.clone())
-        .with_outputs(nx)
-        .with_normalize_output(false);
+    let model =
+        RegressorConfig::new(width, config.point_widths.clone(), config.head_widths.clone()).with_outputs(nx).with_normalize_output(false);
     let (trained, run) = train_with_loss(&model, &data, &config.train, |pred, target| {
         let mut terms: Vec<Tensor<1>> = Vec::new();
         for &o in &quats {
@@ -245,7 +246,8 @@ mod tests {
     #[test]
     fn bad_samples_are_typed_errors() {
         use simhc::layout::FieldLayout;
-        const UNKNOWNS: &[FieldLayout] = &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "s", kind: FieldKind::Scalar, offset: 4 }];
+        const UNKNOWNS: &[FieldLayout] =
+            &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "s", kind: FieldKind::Scalar, offset: 4 }];
         const ROW: &[FieldLayout] = &[FieldLayout { name: "f", kind: FieldKind::Vector(3), offset: 0 }];
         let layout = Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 2, per_row: 3 };
         let config = LearnedStartConfig { samples: 4, ..LearnedStartConfig::default() };
@@ -253,7 +255,11 @@ mod tests {
         let mut calls = 0;
         let short = train_learned_start(&layout, &config, |rng| {
             calls += 1;
-            if calls == 3 { (vec![0.1; 5], vec![1.0, 0.0, 0.0, 0.0, 2.0]) } else { good(rng) }
+            if calls == 3 {
+                (vec![0.1; 5], vec![1.0, 0.0, 0.0, 0.0, 2.0])
+            } else {
+                good(rng)
+            }
         });
         assert!(matches!(short, Err(LearnedStartError::Length { index: 2, what: "parameters", got: 5, expected: 6 })), "{short:?}");
         let unknowns = train_learned_start(&layout, &config, |_| (vec![0.1; 6], vec![1.0, 0.0, 0.0, 0.0]));

@@ -40,9 +40,7 @@ use std::time::Instant;
 
 /// The shipped GRPS network: 18 -> 64 -> 128 -> 128 -> 256, max-pool, 256 -> 128 -> 10.
 pub fn grps_model() -> RegressorConfig {
-    RegressorConfig::new(GRPS_ROW_WIDTH, vec![64, 128, 128, 256], vec![256, 128])
-        .with_outputs(GRPS_OUTPUTS)
-        .with_normalize_output(false)
+    RegressorConfig::new(GRPS_ROW_WIDTH, vec![64, 128, 128, 256], vec![256, 128]).with_outputs(GRPS_OUTPUTS).with_normalize_output(false)
 }
 
 /// Settings of [`train_grps`]; the default is the configuration of the shipped weights.

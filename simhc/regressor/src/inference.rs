@@ -19,10 +19,7 @@ pub static UPNP_FOLDED: &[u8] = include_bytes!("../../../problems/weights/upnp.f
 
 /// Loads a burnpack record (bytes of a `.bpk` file) into a `config` network on the plain flex
 /// device, in inference mode.
-pub fn load_bpk_bytes(
-    config: &RegressorConfig,
-    bytes: &[u8],
-) -> Result<PoseRegressor, RecordError> {
+pub fn load_bpk_bytes(config: &RegressorConfig, bytes: &[u8]) -> Result<PoseRegressor, RecordError> {
     let device = Device::flex();
     let record = ModuleRecord::from_bytes(burn::tensor::Bytes::from_bytes_vec(bytes.to_vec()))?;
     Ok(config.init(&device).load_record(record).valid())
@@ -46,28 +43,11 @@ pub fn predict(model: &PoseRegressor, rows: &[f32], points: usize, device: &Devi
 
 /// Runs `model` on `batch` samples at once: `rows` flat, sample after sample, each `points`
 /// rows. Returns the outputs flat (`outputs` numbers per sample).
-pub fn predict_batch(
-    model: &PoseRegressor,
-    rows: &[f32],
-    batch: usize,
-    points: usize,
-    device: &Device,
-) -> Vec<f32> {
+pub fn predict_batch(model: &PoseRegressor, rows: &[f32], batch: usize, points: usize, device: &Device) -> Vec<f32> {
     let channels = rows.len() / (batch * points);
-    assert_eq!(
-        rows.len(),
-        batch * points * channels,
-        "rows not [batch, points, channels]"
-    );
-    let x = Tensor::<3>::from_data(
-        TensorData::new(rows.to_vec(), [batch, points, channels]),
-        device,
-    );
-    model
-        .forward(x)
-        .into_data()
-        .try_to_vec::<f32>()
-        .expect("f32 output")
+    assert_eq!(rows.len(), batch * points * channels, "rows not [batch, points, channels]");
+    let x = Tensor::<3>::from_data(TensorData::new(rows.to_vec(), [batch, points, channels]), device);
+    model.forward(x).into_data().try_to_vec::<f32>().expect("f32 output")
 }
 
 fn tensor_values<const D: usize>(t: Tensor<D>) -> Vec<f32> {
@@ -96,15 +76,9 @@ pub fn fold(model: &PoseRegressor) -> Result<FoldedNetwork, RegressorError> {
         let mean = tensor_values(norm.running_mean.value());
         let var = tensor_values(norm.running_var.value());
         // fold in f64, round once
-        let s: Vec<f64> = (0..o)
-            .map(|j| f64::from(gamma[j]) / (f64::from(var[j]) + norm.epsilon).sqrt())
-            .collect();
-        let w: Vec<f32> = (0..i * o)
-            .map(|k| (f64::from(w[k]) * s[k % o]) as f32)
-            .collect();
-        let b: Vec<f32> = (0..o)
-            .map(|j| ((f64::from(b[j]) - f64::from(mean[j])) * s[j] + f64::from(beta[j])) as f32)
-            .collect();
+        let s: Vec<f64> = (0..o).map(|j| f64::from(gamma[j]) / (f64::from(var[j]) + norm.epsilon).sqrt()).collect();
+        let w: Vec<f32> = (0..i * o).map(|k| (f64::from(w[k]) * s[k % o]) as f32).collect();
+        let b: Vec<f32> = (0..o).map(|j| ((f64::from(b[j]) - f64::from(mean[j])) * s[j] + f64::from(beta[j])) as f32).collect();
         point.push(DenseLayer::new(i, o, w, b)?);
     }
     let mut head = Vec::new();
@@ -117,7 +91,5 @@ pub fn fold(model: &PoseRegressor) -> Result<FoldedNetwork, RegressorError> {
 
 /// [`fold`] serialized in the runtime's binary format (`problems/weights/upnp.folded`).
 pub fn export_folded(model: &PoseRegressor) -> Vec<u8> {
-    fold(model)
-        .expect("a trained model has finite weights and chained widths")
-        .to_bytes()
+    fold(model).expect("a trained model has finite weights and chained widths").to_bytes()
 }

@@ -37,19 +37,12 @@ pub struct RegressorConfig {
 impl RegressorConfig {
     /// The UPnP network shipped with simhc: 9 -> 32 -> 64 -> 64 -> 128, max-pool, 128 -> 64 -> 4.
     pub fn upnp() -> Self {
-        Self::new(
-            simhc_problems::upnp::features::UPNP_ROW_WIDTH,
-            vec![32, 64, 64, 128],
-            vec![64],
-        )
+        Self::new(simhc_problems::upnp::features::UPNP_ROW_WIDTH, vec![32, 64, 64, 128], vec![64])
     }
 
     /// Builds the network with freshly initialized parameters on `device`.
     pub fn init(&self, device: &Device) -> PoseRegressor {
-        assert!(
-            !self.point_widths.is_empty(),
-            "need at least one point layer"
-        );
+        assert!(!self.point_widths.is_empty(), "need at least one point layer");
         let mut width = self.input_width;
         let mut point_layers = Vec::new();
         let mut point_norms = Vec::new();
@@ -59,21 +52,11 @@ impl RegressorConfig {
             width = w;
         }
         let mut head_layers = Vec::new();
-        for &w in self
-            .head_widths
-            .iter()
-            .chain(std::iter::once(&self.outputs))
-        {
+        for &w in self.head_widths.iter().chain(std::iter::once(&self.outputs)) {
             head_layers.push(LinearConfig::new(width, w).init(device));
             width = w;
         }
-        PoseRegressor {
-            point_layers,
-            point_norms,
-            head_layers,
-            activation: Relu::new(),
-            normalize_output: self.normalize_output,
-        }
+        PoseRegressor { point_layers, point_norms, head_layers, activation: Relu::new(), normalize_output: self.normalize_output }
     }
 }
 

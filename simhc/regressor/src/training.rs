@@ -36,14 +36,7 @@ pub struct TrainConfig {
 
 impl Default for TrainConfig {
     fn default() -> Self {
-        Self {
-            epochs: 12,
-            batch_size: 128,
-            learning_rate: 4e-3,
-            final_learning_rate: 4e-5,
-            seed: 42,
-            progress: true,
-        }
+        Self { epochs: 12, batch_size: 128, learning_rate: 4e-3, final_learning_rate: 4e-5, seed: 42, progress: true }
     }
 }
 
@@ -71,10 +64,7 @@ pub struct RotationStats {
 impl RotationStats {
     /// Statistics of `errors` (degrees; NaN counts as 180).
     pub fn from_errors(errors: &[f64]) -> Self {
-        let mut e: Vec<f64> = errors
-            .iter()
-            .map(|&x| if x.is_nan() { 180.0 } else { x })
-            .collect();
+        let mut e: Vec<f64> = errors.iter().map(|&x| if x.is_nan() { 180.0 } else { x }).collect();
         e.sort_by(f64::total_cmp);
         let n = e.len();
         let pct = |t: f64| 100.0 * e.iter().filter(|&&x| x < t).count() as f64 / n.max(1) as f64;
@@ -162,18 +152,13 @@ pub fn quaternion_error_deg(q: &[f32], q_gt: &[f32]) -> f64 {
         let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
         v.map(|x| x / n)
     };
-    rotation_error_deg(
-        &rotation_from_quat(unit(q)),
-        &rotation_from_quat(unit(q_gt)),
-    )
+    rotation_error_deg(&rotation_from_quat(unit(q)), &rotation_from_quat(unit(q_gt)))
 }
 
 /// Validation statistics of `model` on `data` (targets are quaternions).
 pub fn evaluate(model: &PoseRegressor, data: &InMemoryDataset) -> RotationStats {
     let pred = predict_dataset(model, data);
-    let errors: Vec<f64> = (0..data.len())
-        .map(|i| quaternion_error_deg(&pred[4 * i..4 * i + 4], data.target(i)))
-        .collect();
+    let errors: Vec<f64> = (0..data.len()).map(|i| quaternion_error_deg(&pred[4 * i..4 * i + 4], data.target(i))).collect();
     RotationStats::from_errors(&errors)
 }
 
@@ -222,14 +207,8 @@ pub fn train_with_loss<L>(
 where
     L: Fn(Tensor<2>, Tensor<2>) -> Tensor<1>,
 {
-    assert!(
-        config.batch_size >= 2,
-        "batch norm needs batches of at least 2"
-    );
-    assert!(
-        train.len() >= config.batch_size,
-        "fewer training samples than one batch"
-    );
+    assert!(config.batch_size >= 2, "batch norm needs batches of at least 2");
+    assert!(train.len() >= config.batch_size, "fewer training samples than one batch");
     let device = Device::flex().autodiff();
     device.seed(config.seed);
     let mut model = model_config.init(&device);
@@ -239,9 +218,7 @@ where
     let total_steps = steps_per_epoch * config.epochs;
     let bar = if config.progress {
         ProgressBar::new(total_steps as u64).with_style(
-            ProgressStyle::default_bar()
-                .template("{elapsed_precise} [{bar:30}] {pos}/{len} steps {msg}")
-                .expect("valid template"),
+            ProgressStyle::default_bar().template("{elapsed_precise} [{bar:30}] {pos}/{len} steps {msg}").expect("valid template"),
         )
     } else {
         ProgressBar::hidden()
@@ -256,8 +233,7 @@ where
         for batch in order.chunks_exact(config.batch_size) {
             let progress = step as f64 / total_steps.max(1) as f64;
             let cosine = 0.5 * (1.0 + (std::f64::consts::PI * progress).cos());
-            let lr = config.final_learning_rate
-                + (config.learning_rate - config.final_learning_rate) * cosine;
+            let lr = config.final_learning_rate + (config.learning_rate - config.final_learning_rate) * cosine;
             let (x, y) = train.batch(batch, &device);
             let loss = loss_fn(model.forward(x), y);
             loss_sum += loss.clone().into_scalar::<f32>() as f64;
@@ -267,19 +243,11 @@ where
             bar.inc(1);
         }
         let mean = loss_sum / steps_per_epoch as f64;
-        bar.set_message(format!(
-            "epoch {}/{} loss {mean:.5}",
-            epoch + 1,
-            config.epochs
-        ));
+        bar.set_message(format!("epoch {}/{} loss {mean:.5}", epoch + 1, config.epochs));
         epoch_losses.push(mean);
     }
     bar.finish_and_clear();
     let train_seconds = start.elapsed().as_secs_f64();
-    let run = TrainRun {
-        steps: step,
-        train_seconds,
-        epoch_losses,
-    };
+    let run = TrainRun { steps: step, train_seconds, epoch_losses };
     (model.valid(), run)
 }

@@ -58,21 +58,13 @@ fn dataset_of(
 }
 
 /// `count` training scenes drawn in order from `ChaCha8Rng::seed_from_u64(seed)`.
-pub fn training_dataset(
-    scene_config: &UpnpSceneConfig,
-    count: usize,
-    seed: u64,
-) -> Result<InMemoryDataset, DataError> {
+pub fn training_dataset(scene_config: &UpnpSceneConfig, count: usize, seed: u64) -> Result<InMemoryDataset, DataError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     dataset_of(scene_config, count, |i| sample_scene(scene_config, i, &mut rng))
 }
 
 /// `count` validation scenes ([`validation_scene`]).
-pub fn validation_dataset(
-    scene_config: &UpnpSceneConfig,
-    count: usize,
-    first_seed: u64,
-) -> Result<InMemoryDataset, DataError> {
+pub fn validation_dataset(scene_config: &UpnpSceneConfig, count: usize, first_seed: u64) -> Result<InMemoryDataset, DataError> {
     dataset_of(scene_config, count, |i| validation_scene(scene_config, first_seed, i))
 }
 
@@ -127,11 +119,7 @@ pub fn train_upnp(config: &UpnpTrainConfig) -> Result<UpnpTrained, DataError> {
     let valid = validation_dataset(&config.scene, config.valid_samples, config.valid_first_seed)?;
     let data_seconds = start.elapsed().as_secs_f64();
     let (model, report) = training::train(&config.model, &train, &valid, &config.train);
-    Ok(UpnpTrained {
-        model,
-        report,
-        data_seconds,
-    })
+    Ok(UpnpTrained { model, report, data_seconds })
 }
 
 /// Rotation-error statistics of `predict` (canonical rows -> canonical quaternion, decoded
@@ -159,9 +147,9 @@ pub fn evaluate_scenes(
 /// `upnp.bpk` (burn) and `upnp.folded` (the runtime format) into `out_dir`. This is
 /// `simhc train upnp`.
 pub fn train_and_write(out_dir: &std::path::Path, config: &UpnpTrainConfig) -> Result<(), Box<dyn std::error::Error>> {
+    use crate::{export_folded, predict};
     use burn::prelude::*;
     use simhc::regressor::FoldedNetwork;
-    use crate::{export_folded, predict};
     let config = config.clone();
     println!("seed {}", config.train.seed);
     println!(
@@ -198,16 +186,11 @@ pub fn train_and_write(out_dir: &std::path::Path, config: &UpnpTrainConfig) -> R
     println!("wrote {} and {}", bpk.display(), folded_path.display());
 
     let folded = FoldedNetwork::from_bytes(&folded_bytes)?;
-    let stats = evaluate_scenes(
-        &config.scene,
-        config.valid_samples,
-        config.valid_first_seed,
-        |rows| {
-            let mut q = [0.0; 4];
-            folded.forward(rows, &mut q).expect("valid rows");
-            q
-        },
-    );
+    let stats = evaluate_scenes(&config.scene, config.valid_samples, config.valid_first_seed, |rows| {
+        let mut q = [0.0; 4];
+        folded.forward(rows, &mut q).expect("valid rows");
+        q
+    });
     println!("validation (folded, batch 1): {stats}");
     let device = Device::flex();
     let stats = evaluate_scenes(&config.scene, 200, config.valid_first_seed, |rows| {

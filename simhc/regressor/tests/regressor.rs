@@ -8,9 +8,7 @@ use simhc_problems::upnp::scene::UpnpSceneConfig;
 use simhc_regressor::inference::{upnp_embedded, upnp_folded_embedded, UPNP_FOLDED};
 use simhc_regressor::training::{train, TrainConfig};
 use simhc_regressor::upnp::{evaluate_scenes, training_dataset, validation_dataset};
-use simhc_regressor::{
-    export_folded, fold, predict, predict_batch, PoseRegressor, RegressorConfig,
-};
+use simhc_regressor::{export_folded, fold, predict, predict_batch, PoseRegressor, RegressorConfig};
 use std::sync::Mutex;
 
 /// burn's RNG is process-global: seeded initialization must not interleave between tests.
@@ -30,14 +28,7 @@ fn tiny_train(seed: u64, epochs: usize) -> (PoseRegressor, Vec<f64>) {
     let scenes = UpnpSceneConfig::default();
     let data = training_dataset(&scenes, 512, seed).unwrap();
     let valid = validation_dataset(&scenes, 64, 5_000_000).unwrap();
-    let config = TrainConfig {
-        epochs,
-        batch_size: 32,
-        learning_rate: 3e-3,
-        final_learning_rate: 1e-3,
-        seed,
-        progress: false,
-    };
+    let config = TrainConfig { epochs, batch_size: 32, learning_rate: 3e-3, final_learning_rate: 1e-3, seed, progress: false };
     let (model, report) = train(&tiny_config(), &data, &valid, &config);
     assert_eq!(report.steps, epochs * 16);
     assert_eq!(report.valid.count, 64);
@@ -51,11 +42,7 @@ fn tiny_training_run_decreases_the_loss_and_is_reproducible() {
     assert!(losses[3] < losses[0], "loss did not decrease: {losses:?}");
     let (again, losses_again) = tiny_train(7, 4);
     assert_eq!(losses, losses_again);
-    assert_eq!(
-        fold(&model).unwrap(),
-        fold(&again).unwrap(),
-        "same seed, different weights"
-    );
+    assert_eq!(fold(&model).unwrap(), fold(&again).unwrap(), "same seed, different weights");
 }
 
 /// Checks `FoldedNetwork` against burn on random rows (several row counts, batch 1 and
@@ -65,9 +52,7 @@ fn assert_folded_matches_burn(model: &PoseRegressor, folded: &FoldedNetwork, see
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for n in [1usize, 3, 5, 16, 23] {
         let batch = 3;
-        let rows: Vec<f32> = (0..batch * n * 9)
-            .map(|_| rng.random_range(-2.0f32..2.0))
-            .collect();
+        let rows: Vec<f32> = (0..batch * n * 9).map(|_| rng.random_range(-2.0f32..2.0)).collect();
         let batched = predict_batch(model, &rows, batch, n, &device);
         for b in 0..batch {
             let one = &rows[b * n * 9..(b + 1) * n * 9];
@@ -76,15 +61,9 @@ fn assert_folded_matches_burn(model: &PoseRegressor, folded: &FoldedNetwork, see
             folded.forward(one, &mut out).unwrap();
             for k in 0..4 {
                 let diff = (out[k] - f64::from(single[k])).abs();
-                assert!(
-                    diff < 1e-5,
-                    "n={n} b={b}: folded {out:?} vs burn {single:?}"
-                );
+                assert!(diff < 1e-5, "n={n} b={b}: folded {out:?} vs burn {single:?}");
                 let diff = (f64::from(batched[4 * b + k]) - f64::from(single[k])).abs();
-                assert!(
-                    diff < 1e-5,
-                    "n={n} b={b}: batched {batched:?} vs single {single:?}"
-                );
+                assert!(diff < 1e-5, "n={n} b={b}: batched {batched:?} vs single {single:?}");
             }
         }
     }
@@ -105,15 +84,8 @@ fn folded_network_equals_burn_on_a_trained_tiny_model() {
 fn shipped_folded_weights_equal_the_shipped_burn_weights() {
     let model = upnp_embedded();
     let folded = upnp_folded_embedded();
-    assert_eq!(
-        fold(&model).unwrap(),
-        folded,
-        "upnp.folded is not the fold of upnp.bpk"
-    );
-    assert_eq!(
-        FoldedNetwork::from_bytes(UPNP_FOLDED).unwrap().to_bytes(),
-        UPNP_FOLDED
-    );
+    assert_eq!(fold(&model).unwrap(), folded, "upnp.folded is not the fold of upnp.bpk");
+    assert_eq!(FoldedNetwork::from_bytes(UPNP_FOLDED).unwrap().to_bytes(), UPNP_FOLDED);
     assert_folded_matches_burn(&model, &folded, 2);
 }
 

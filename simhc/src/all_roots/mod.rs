@@ -17,20 +17,17 @@
 //! sequentially or in parallel (rayon); the result does not depend on the thread count.
 
 use crate::homotopy::{real_if_close, to_complex, Homotopy, ParameterHomotopy};
+use crate::lanes::{C64x4, Lanes, LANES};
 use crate::monodromy::{relative_distance, SignFlip, C};
 use crate::tracker::batch::{batch_supported, track_batch_queue, LaneIsa, LaneSystem};
-use crate::tracker::{
-    newton, track, AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackError, TrackStats,
-    TrackerOptions,
-};
-use crate::lanes::{C64x4, Lanes, LANES};
+use crate::tracker::{newton, track, AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackError, TrackStats, TrackerOptions};
 use crate::{CoefficientForm, ParamDerivative};
 use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use repair::{PathResult, RepairQueue};
 pub use repair::{suspicious_paths, EndPoint};
+use repair::{PathResult, RepairQueue};
 
 mod repair;
 
@@ -117,11 +114,7 @@ pub struct AllRootsOptions {
 /// path-jump repair); Heun needs more but cheaper steps, and the complex evaluation of `J_x` and
 /// `dH/dt` dominates the cost.
 pub fn all_roots_tracker() -> TrackerOptions {
-    TrackerOptions {
-        predictor: Predictor::Heun,
-        final_tolerance: ALL_ROOTS_FINAL_TOLERANCE,
-        ..TrackerOptions::default()
-    }
+    TrackerOptions { predictor: Predictor::Heun, final_tolerance: ALL_ROOTS_FINAL_TOLERANCE, ..TrackerOptions::default() }
 }
 
 /// The estimated relative error an end point must reach at `t = 1` in an all-roots solve:
@@ -220,15 +213,8 @@ impl<const N: usize> AllRootsResult<N> {
 
     /// The real solution with the smallest `score` (a selection criterion, e.g. a reprojection
     /// error or the distance to the ground truth).
-    pub fn best_real_by<F: Fn(&RealSolution<N>) -> f64>(
-        &self,
-        score: F,
-    ) -> Option<&RealSolution<N>> {
-        self.real
-            .iter()
-            .map(|s| (s, score(s)))
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(s, _)| s)
+    pub fn best_real_by<F: Fn(&RealSolution<N>) -> f64>(&self, score: F) -> Option<&RealSolution<N>> {
+        self.real.iter().map(|s| (s, score(s))).min_by(|a, b| a.1.total_cmp(&b.1)).map(|(s, _)| s)
     }
 
     /// Number of finite (successful) end points.
@@ -323,17 +309,10 @@ where
             let batch = |indices: &[usize], opts: &TrackerOptions, repair: Option<&TrackerOptions>| {
                 let settings: Vec<TrackerOptions> = std::iter::once(*opts).chain(repair.copied()).collect();
                 let run = |part: &[usize]| {
-                    let mut queue = RepairQueue::new(
-                        part,
-                        repair.is_some(),
-                        start.symmetry.as_ref(),
-                        options.duplicate_tolerance,
-                    );
+                    let mut queue = RepairQueue::new(part, repair.is_some(), start.symmetry.as_ref(), options.duplicate_tolerance);
                     // The jobs are valid by construction; a declined call falls back to one path
                     // at a time.
-                    track_batch_queue(isa, &system, &h, &start.solutions, &settings, &mut queue)
-                        .and_then(|()| queue.into_results())
-                        .ok()
+                    track_batch_queue(isa, &system, &h, &start.solutions, &settings, &mut queue).and_then(|()| queue.into_results()).ok()
                 };
                 if options.parallel {
                     let parts = rayon::current_num_threads().max(1);
@@ -361,9 +340,8 @@ where
 /// with repair settings, also re-tracks the suspicious ones ([`repair::RepairQueue`]). Returns
 /// the results in the order of the indices and the re-tracks (start index, result), or `None`
 /// when the lanes do not run the settings.
-type BatchTracking<'a, const N: usize> = dyn Fn(&[usize], &TrackerOptions, Option<&TrackerOptions>) -> Option<(Vec<PathResult<N>>, Vec<(usize, PathResult<N>)>)>
-    + Sync
-    + 'a;
+type BatchTracking<'a, const N: usize> =
+    dyn Fn(&[usize], &TrackerOptions, Option<&TrackerOptions>) -> Option<(Vec<PathResult<N>>, Vec<(usize, PathResult<N>)>)> + Sync + 'a;
 
 /// The settings of each round of the path-jump repair: [`AllRootsOptions::retrack`], the
 /// largest step halved from one round to the next.
@@ -443,14 +421,10 @@ where
     }
     let mut result = finish::<P, N, NP>(results, target, options, start.symmetry.clone());
     result.retracked = retracked;
-    result.duplicates = suspicious_paths(
-        &result.endpoints,
-        start.symmetry.as_ref(),
-        options.duplicate_tolerance,
-    )
-    .iter()
-    .filter(|&&i| result.endpoints[i].is_ok())
-    .count();
+    result.duplicates = suspicious_paths(&result.endpoints, start.symmetry.as_ref(), options.duplicate_tolerance)
+        .iter()
+        .filter(|&&i| result.endpoints[i].is_ok())
+        .count();
     result
 }
 
@@ -479,14 +453,9 @@ pub struct CoefficientParameterHomotopy<P, const NP: usize, const NC: usize> {
     dc_lanes: Vec<C64x4>,
 }
 
-impl<P, const NP: usize, const NC: usize> std::fmt::Debug
-    for CoefficientParameterHomotopy<P, NP, NC>
-{
+impl<P, const NP: usize, const NC: usize> std::fmt::Debug for CoefficientParameterHomotopy<P, NP, NC> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("CoefficientParameterHomotopy")
-            .field("base", &self.base)
-            .field("degree", &self.dc.len())
-            .finish()
+        f.debug_struct("CoefficientParameterHomotopy").field("base", &self.base).field("degree", &self.dc.len()).finish()
     }
 }
 
@@ -598,19 +567,12 @@ impl<P, const NP: usize, const NC: usize> CoefficientParameterHomotopy<P, NP, NC
     }
 }
 
-impl<P, const N: usize, const NP: usize, const NC: usize> Homotopy<C, N, N>
-    for CoefficientParameterHomotopy<P, NP, NC>
+impl<P, const N: usize, const NP: usize, const NC: usize> Homotopy<C, N, N> for CoefficientParameterHomotopy<P, NP, NC>
 where
     P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
 {
     #[inline]
-    fn evaluate(
-        &self,
-        x: &SVector<C, N>,
-        t: f64,
-        h: &mut SVector<C, N>,
-        jx: &mut SMatrix<C, N, N>,
-    ) {
+    fn evaluate(&self, x: &SVector<C, N>, t: f64, h: &mut SVector<C, N>, jx: &mut SMatrix<C, N, N>) {
         P::residual_jacobian(x, &self.base.params_at(t), h, jx);
     }
 
@@ -625,13 +587,7 @@ where
     }
 
     #[inline]
-    fn jacobian_dt(
-        &self,
-        x: &SVector<C, N>,
-        t: f64,
-        jx: &mut SMatrix<C, N, N>,
-        dh: &mut SVector<C, N>,
-    ) {
+    fn jacobian_dt(&self, x: &SVector<C, N>, t: f64, jx: &mut SMatrix<C, N, N>, dh: &mut SVector<C, N>) {
         P::jacobian(x, &self.base.params_at(t), jx);
         self.dh_dt(x, t, dh);
     }
@@ -651,10 +607,7 @@ where
     let mut failed = 0;
     let mut real = Vec::new();
     let fixed = crate::homotopy::FixedSystem::<P, f64, NP>::new(*target);
-    let newton_options = NewtonOptions {
-        max_iterations: options.polish_iterations,
-        ..NewtonOptions::default()
-    };
+    let newton_options = NewtonOptions { max_iterations: options.polish_iterations, ..NewtonOptions::default() };
     let endpoints = results
         .into_iter()
         .enumerate()
@@ -677,11 +630,7 @@ where
                         xr = g.canonical(&xr);
                     }
                     let residual = fixed.validation_residual(&xr, 1.0);
-                    real.push(RealSolution {
-                        x: xr,
-                        residual,
-                        path: i,
-                    });
+                    real.push(RealSolution { x: xr, residual, path: i });
                 }
                 Ok(r.x)
             }
@@ -692,15 +641,7 @@ where
         })
         .collect();
     real.sort_by(|a, b| a.residual.total_cmp(&b.residual));
-    AllRootsResult {
-        endpoints,
-        real,
-        stats,
-        failed,
-        symmetry,
-        retracked: 0,
-        duplicates: 0,
-    }
+    AllRootsResult { endpoints, real, stats, failed, symmetry, retracked: 0, duplicates: 0 }
 }
 
 /// Moves a start system to new complex parameters `params` by tracking every solution along the
@@ -718,11 +659,8 @@ where
 {
     let h = ParameterHomotopy::<P, C, NP>::new(start.params, *params);
     let one = |x: &SVector<C, N>| track(&h, x, &options.tracker);
-    let results: Vec<_> = if options.parallel {
-        start.solutions.par_iter().map(one).collect()
-    } else {
-        start.solutions.iter().map(one).collect()
-    };
+    let results: Vec<_> =
+        if options.parallel { start.solutions.par_iter().map(one).collect() } else { start.solutions.iter().map(one).collect() };
     let mut set = crate::monodromy::SolutionSet::<N>::new(start.symmetry.clone(), 1e-6);
     let mut failed = 0;
     for r in results {
@@ -734,12 +672,5 @@ where
         }
     }
     failed += start.solutions.len() - failed - set.len();
-    (
-        StartSystem {
-            params: *params,
-            solutions: set.into_vec(),
-            symmetry: start.symmetry.clone(),
-        },
-        failed,
-    )
+    (StartSystem { params: *params, solutions: set.into_vec(), symmetry: start.symmetry.clone() }, failed)
 }

@@ -93,12 +93,7 @@ fn within_key(ka: f64, kb: f64, tolerance: f64) -> bool {
 
 /// Whether end points `a` (the one first in key order) and `b` are the same, modulo the
 /// symmetry: relative distance at most `tolerance`.
-fn coincide<const N: usize>(
-    a: &SVector<C, N>,
-    b: &SVector<C, N>,
-    symmetry: Option<&SignFlip>,
-    tolerance: f64,
-) -> bool {
+fn coincide<const N: usize>(a: &SVector<C, N>, b: &SVector<C, N>, symmetry: Option<&SignFlip>, tolerance: f64) -> bool {
     let d = relative_distance(a, b).min(symmetry.map_or(f64::INFINITY, |g| relative_distance(&g.apply(a), b)));
     d <= tolerance
 }

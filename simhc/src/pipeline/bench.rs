@@ -204,7 +204,9 @@ mod tests {
         assert_eq!((row.solved, row.wrong, row.flagged, row.failed, row.trials), (1, 1, 1, 1, 4));
         assert!(row.median_us >= 0.0 && row.mean_us >= 0.0);
         assert_eq!(row.success_pct(), 25.0);
-        let est = bench_estimate_row("e", &trials, &|x: &SVector<f64, 1>, t: &SVector<f64, 1>| (x[0] - t[0]).abs() < 1e-9, |k: &u8| (*k < 3).then(|| SVector::from([f64::from(*k)])));
+        let est = bench_estimate_row("e", &trials, &|x: &SVector<f64, 1>, t: &SVector<f64, 1>| (x[0] - t[0]).abs() < 1e-9, |k: &u8| {
+            (*k < 3).then(|| SVector::from([f64::from(*k)]))
+        });
         assert_eq!((est.solved, est.wrong, est.failed), (1, 2, 1));
         assert!(table(&[row, est]).lines().count() == 3);
     }

@@ -2,12 +2,12 @@
 
 use super::path::{gauss_newton, simulator_hc};
 use super::{
-    Attempt, AttemptError, Canonicalize, Fallback, Method, StartError, Origin, PipelineError, Solved, StageTimes, StartProvider, StartSimulator, TargetParameters,
-    Validator, Verdict,
+    Attempt, AttemptError, Canonicalize, Fallback, Method, Origin, PipelineError, Solved, StageTimes, StartError, StartProvider,
+    StartSimulator, TargetParameters, Validator, Verdict,
 };
 use crate::tracker::{NewtonOptions, TrackStats, TrackerOptions};
-use nalgebra::SVector;
 use crate::CoefficientForm;
+use nalgebra::SVector;
 use std::borrow::Borrow;
 use std::marker::PhantomData;
 use std::time::Instant;
@@ -69,7 +69,17 @@ where
 {
     /// The pipeline of these pieces with default options and no fallback.
     pub fn new(target: &'a T, starts: &'a [&'a dyn StartProvider<D, NX>], simulator: &'a S, validator: &'a V) -> Self {
-        Self { target, starts, simulator, other_simulators: &[], validator, fallback: None, schedule: None, options: PipelineOptions::default(), problem: PhantomData }
+        Self {
+            target,
+            starts,
+            simulator,
+            other_simulators: &[],
+            validator,
+            fallback: None,
+            schedule: None,
+            options: PipelineOptions::default(),
+            problem: PhantomData,
+        }
     }
 
     /// The same pipeline with other simulators, which [`Method::OtherSimulatorHc`] attempts of
@@ -145,10 +155,16 @@ where
     /// Up to `max` end points that are accepted or plausible, in the order of the schedule,
     /// leaving out those `same` as one already found; no fallback. The hypotheses of a RANSAC
     /// sample: with a minimal sample every real root is exact, and the consensus picks.
-    pub fn plausible_end_points(&self, data: &D, max: usize, same: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool) -> Result<Vec<Solved<V::Check, NX>>, T::Error> {
+    pub fn plausible_end_points(
+        &self,
+        data: &D,
+        max: usize,
+        same: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
+    ) -> Result<Vec<Solved<V::Check, NX>>, T::Error> {
         let mut times = StageTimes::default();
         let p = self.target.params(data)?;
-        let default_schedule: Vec<Attempt> = (0..self.starts.len()).map(|provider| Attempt { provider, method: Method::SimulatorHc }).collect();
+        let default_schedule: Vec<Attempt> =
+            (0..self.starts.len()).map(|provider| Attempt { provider, method: Method::SimulatorHc }).collect();
         let schedule = self.schedule.unwrap_or(&default_schedule);
         let mut found: Vec<Solved<V::Check, NX>> = Vec::new();
         let mut current: Option<(usize, Option<SVector<f64, NX>>)> = None;
@@ -171,7 +187,14 @@ where
     }
 
     /// One attempt from `x0` with `method`; adds its time to `times`.
-    fn attempt(&self, data: &D, x0: &SVector<f64, NX>, p: &SVector<f64, NP>, method: Method, times: &mut StageTimes) -> Result<(SVector<f64, NX>, TrackStats), AttemptError> {
+    fn attempt(
+        &self,
+        data: &D,
+        x0: &SVector<f64, NX>,
+        p: &SVector<f64, NP>,
+        method: Method,
+        times: &mut StageTimes,
+    ) -> Result<(SVector<f64, NX>, TrackStats), AttemptError> {
         let o = &self.options;
         match method {
             Method::SimulatorHc => simulator_hc::<P, D, S, NX, NF, NP, NC>(data, self.simulator, x0, p, o, times),
@@ -188,7 +211,13 @@ where
         }
     }
 
-    fn run(&self, data: &D, starts: &[&dyn StartProvider<D, NX>], schedule: Option<&[Attempt]>, fallback: bool) -> Outcome<T, V, D, NX, NP> {
+    fn run(
+        &self,
+        data: &D,
+        starts: &[&dyn StartProvider<D, NX>],
+        schedule: Option<&[Attempt]>,
+        fallback: bool,
+    ) -> Outcome<T, V, D, NX, NP> {
         let o = &self.options;
         let mut times = StageTimes::default();
         let t0 = Instant::now();
@@ -267,7 +296,8 @@ where
             let mut best_fallback: Option<Solved<V::Check, NX>> = None;
             for (candidate, x) in candidates.into_iter().enumerate() {
                 let check = self.validator.check(data, &x);
-                let solved = Solved { x, start: x, origin: Origin::Fallback { candidate }, attempts, check, stats: TrackStats::default(), times };
+                let solved =
+                    Solved { x, start: x, origin: Origin::Fallback { candidate }, attempts, check, stats: TrackStats::default(), times };
                 if best_fallback.as_ref().is_none_or(|b| self.validator.better(&check, &b.check)) {
                     best_fallback = Some(solved);
                 }

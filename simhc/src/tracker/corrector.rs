@@ -17,10 +17,7 @@ pub(crate) fn norm_weights<S: Scalar, const N: usize>(x: &SVector<S, N>) -> SVec
 
 /// `max_i |v_i| w_i` (NaN if any entry is NaN).
 #[inline]
-pub(crate) fn weighted_norm<S: Scalar, const N: usize>(
-    v: &SVector<S, N>,
-    w: &SVector<f64, N>,
-) -> f64 {
+pub(crate) fn weighted_norm<S: Scalar, const N: usize>(v: &SVector<S, N>, w: &SVector<f64, N>) -> f64 {
     let mut m = 0.0f64;
     for (e, wi) in v.iter().zip(w.iter()) {
         let a = e.modulus_squared() * wi * wi;
@@ -299,9 +296,7 @@ fn apply_update<S: Scalar, const NX: usize>(
         }
     };
     report.accuracy = if s.estimate_error { accuracy } else { n };
-    if report.accuracy <= s.tolerance
-        || (k >= 1 && report.accuracy <= s.reduction * report.norm_dx0)
-    {
+    if report.accuracy <= s.tolerance || (k >= 1 && report.accuracy <= s.reduction * report.norm_dx0) {
         report.outcome = Ok(());
         return true;
     }
@@ -356,13 +351,7 @@ where
         Err(other) => return Err(other.into_error(t)),
     };
     let residual = h.validation_residual(&x, t);
-    Ok(NewtonResult {
-        x,
-        converged,
-        iterations: report.iterations,
-        accuracy: report.accuracy,
-        residual,
-    })
+    Ok(NewtonResult { x, converged, iterations: report.iterations, accuracy: report.accuracy, residual })
 }
 
 /// Plain (Gauss-)Newton on `F(x; p) = 0` directly: [`newton`] on

@@ -165,10 +165,7 @@ fn pivot_threshold<S: Scalar, const N: usize>(a: &[S]) -> Result<f64, FactorErro
 /// search; an all-zero matrix is singular): such a pivot means `cond(A) >~ 1 / (N eps)`. Column-oriented (right-looking) on slices, so the
 /// inner loops run over contiguous memory without index arithmetic.
 #[inline]
-fn lu_in_place<S: Scalar, const N: usize>(
-    a: &mut [S],
-    perm: &mut [usize; N],
-) -> Result<(), FactorError> {
+fn lu_in_place<S: Scalar, const N: usize>(a: &mut [S], perm: &mut [usize; N]) -> Result<(), FactorError> {
     if a.len() != N * N {
         return Err(FactorError::NonFinite);
     }
@@ -338,14 +335,7 @@ mod tests {
     #[test]
     fn normal_equations_least_squares_complex() {
         let c = |re: f64, im: f64| Complex::new(re, im);
-        let j = nalgebra::SMatrix::<Complex<f64>, 3, 2>::new(
-            c(1.0, 0.5),
-            c(0.0, 1.0),
-            c(2.0, 0.0),
-            c(1.0, -1.0),
-            c(0.5, 0.0),
-            c(3.0, 0.2),
-        );
+        let j = nalgebra::SMatrix::<Complex<f64>, 3, 2>::new(c(1.0, 0.5), c(0.0, 1.0), c(2.0, 0.0), c(1.0, -1.0), c(0.5, 0.0), c(3.0, 0.2));
         let b = nalgebra::SVector::<Complex<f64>, 3>::new(c(1.0, 0.0), c(0.0, 2.0), c(-1.0, 1.0));
         let mut s = LinearSolver::<Complex<f64>, 2, 3>::new();
         s.factor(&j).unwrap();

@@ -92,8 +92,8 @@ mod step_size;
 pub use corrector::{newton, solve_newton, NewtonResult};
 pub use options::{AdaptiveStep, DragStep, NewtonOptions, Predictor, StepControl, TrackerOptions};
 pub use path::{TrackerState, TrackerStatus};
-pub use result::{TrackError, TrackResult, TrackStats};
 pub(crate) use result::Trouble;
+pub use result::{TrackError, TrackResult, TrackStats};
 
 use crate::homotopy::Homotopy;
 use crate::Scalar;

@@ -240,11 +240,7 @@ impl TrackerOptions {
     /// as [`super::TrackError::CorrectorDidNotConverge`] where the paper returns a wrong point.
     /// Not for all-roots tracking (a drag may switch paths).
     pub fn single_path() -> Self {
-        Self::adaptive(AdaptiveStep {
-            initial: 0.25,
-            drag: Some(DragStep::default()),
-            ..AdaptiveStep::default()
-        })
+        Self::adaptive(AdaptiveStep { initial: 0.25, drag: Some(DragStep::default()), ..AdaptiveStep::default() })
     }
 
     /// The adaptive tracker with the given controller settings, other fields at their defaults.

@@ -183,13 +183,9 @@ impl<S: Scalar, const NX: usize> TrackerState<S, NX> {
     /// [`crate::homotopy::Homotopy::validation_residual`]) or the error.
     pub(crate) fn result(&self) -> Result<TrackResult<S, NX>, TrackError> {
         match self.status {
-            TrackerStatus::Success => Ok(TrackResult {
-                x: self.x,
-                t: self.t,
-                stats: self.stats,
-                accuracy: self.accuracy,
-                residual: f64::NAN,
-            }),
+            TrackerStatus::Success => {
+                Ok(TrackResult { x: self.x, t: self.t, stats: self.stats, accuracy: self.accuracy, residual: f64::NAN })
+            }
             TrackerStatus::Failed(e) => Err(e),
             TrackerStatus::Idle | TrackerStatus::Tracking => Err(TrackError::NonFinite { t: self.t }),
         }
@@ -397,9 +393,7 @@ impl<S: Scalar, const NX: usize> TrackerState<S, NX> {
         let at_end = self.t1 >= 1.0;
         // The predicted move, for the path-jump guard (square adaptive steps only).
         self.moved = weighted_norm(&(xp - self.x), &self.weights);
-        let adaptive = |iterations| {
-            CorrectorSettings::adaptive_step(iterations, o.path_tolerance, o.path_reduction, o.max_norm)
-        };
+        let adaptive = |iterations| CorrectorSettings::adaptive_step(iterations, o.path_tolerance, o.path_reduction, o.max_norm);
         let settings = match (o.step, self.drag) {
             (StepControl::Fixed { .. }, _) => CorrectorSettings::fixed_step(
                 o.max_newton_iterations,

@@ -96,9 +96,7 @@ impl Trouble {
             Trouble::Singular => TrackError::SingularJacobian { t },
             Trouble::NonFinite => TrackError::NonFinite { t },
             Trouble::Diverged => TrackError::DivergedToInfinity { t },
-            Trouble::Contraction | Trouble::NotConverged => {
-                TrackError::CorrectorDidNotConverge { t }
-            }
+            Trouble::Contraction | Trouble::NotConverged => TrackError::CorrectorDidNotConverge { t },
         }
     }
 }

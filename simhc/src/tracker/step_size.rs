@@ -47,19 +47,9 @@ pub(crate) fn step_theta(report: &CorrectorReport) -> f64 {
 
 /// Step factor after an accepted step of a predictor of order `order`.
 #[inline]
-pub(crate) fn grow_factor(
-    a: &AdaptiveStep,
-    order: u32,
-    report: &CorrectorReport,
-    omega: Option<f64>,
-    after_rejection: bool,
-) -> f64 {
+pub(crate) fn grow_factor(a: &AdaptiveStep, order: u32, report: &CorrectorReport, omega: Option<f64>, after_rejection: bool) -> f64 {
     let theta = observed_theta(report, omega);
-    let f = if theta.is_finite() && theta > 0.0 {
-        root(a.target_contraction / theta, order + 1)
-    } else {
-        a.max_growth
-    };
+    let f = if theta.is_finite() && theta > 0.0 { root(a.target_contraction / theta, order + 1) } else { a.max_growth };
     let f = f.min(guard_factor(a, order, report));
     let upper = if after_rejection { 1.0 } else { a.max_growth };
     // Accepted steps never shrink by more than the rejection rule would.
@@ -87,21 +77,11 @@ fn guard_factor(a: &AdaptiveStep, order: u32, report: &CorrectorReport) -> f64 {
 
 /// Step factor after a rejected step.
 #[inline]
-pub(crate) fn shrink_factor(
-    a: &AdaptiveStep,
-    order: u32,
-    trouble: Trouble,
-    report: Option<&CorrectorReport>,
-    omega: Option<f64>,
-) -> f64 {
+pub(crate) fn shrink_factor(a: &AdaptiveStep, order: u32, trouble: Trouble, report: Option<&CorrectorReport>, omega: Option<f64>) -> f64 {
     match (trouble, report) {
         (Trouble::Contraction | Trouble::NotConverged, Some(r)) => {
             let theta = observed_theta(r, omega);
-            let f = if theta.is_finite() && theta > 0.0 {
-                root(a.target_contraction / theta, order + 1)
-            } else {
-                0.5
-            };
+            let f = if theta.is_finite() && theta > 0.0 { root(a.target_contraction / theta, order + 1) } else { 0.5 };
             f.min(guard_factor(a, order, r)).clamp(a.min_shrink, 0.5)
         }
         _ => 0.5,
@@ -117,11 +97,7 @@ pub(crate) fn shrink_factor(
 /// `theta` contains Gauss-Newton's step-independent linear rate. Neither scales like
 /// `dt^(p+1)`; the iteration count is the robust signal.
 #[inline]
-pub(crate) fn iteration_factor(
-    a: &AdaptiveStep,
-    report: &CorrectorReport,
-    after_rejection: bool,
-) -> f64 {
+pub(crate) fn iteration_factor(a: &AdaptiveStep, report: &CorrectorReport, after_rejection: bool) -> f64 {
     let f = match report.iterations {
         0..=2 => a.max_growth.min(2.0),
         3 => 1.0,

@@ -48,12 +48,7 @@ impl Problem<1, 1, 1> for Cubic {
     fn jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         j[(0, 0)] = k::<S>(3.0) * x[0] * x[0] + p[0];
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 1>,
-        p: &SVector<S, 1>,
-        f: &mut SVector<S, 1>,
-        j: &mut SMatrix<S, 1, 1>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -64,12 +59,7 @@ impl ParamDerivative<1, 1, 1> for Cubic {
         let a = p[0];
         jp[(0, 0)] = x[0] - k::<S>(3.0) * a * a - k::<S>(2.0) * a;
     }
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, 1>,
-        p: &SVector<S, 1>,
-        dp: &SVector<S, 1>,
-        out: &mut SVector<S, 1>,
-    ) {
+    fn param_directional<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, dp: &SVector<S, 1>, out: &mut SVector<S, 1>) {
         let mut jp = SMatrix::<S, 1, 1>::zeros();
         Self::param_jacobian(x, p, &mut jp);
         out[0] = jp[(0, 0)] * dp[0];
@@ -90,12 +80,7 @@ impl Problem<1, 1, 1> for FoldCubic {
     fn jacobian<S: Scalar>(x: &SVector<S, 1>, _p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         j[(0, 0)] = k::<S>(3.0) * x[0] * x[0] - k::<S>(3.0);
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 1>,
-        p: &SVector<S, 1>,
-        f: &mut SVector<S, 1>,
-        j: &mut SMatrix<S, 1, 1>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -105,12 +90,7 @@ impl ParamDerivative<1, 1, 1> for FoldCubic {
     fn param_jacobian<S: Scalar>(_x: &SVector<S, 1>, _p: &SVector<S, 1>, jp: &mut SMatrix<S, 1, 1>) {
         jp[(0, 0)] = -S::one();
     }
-    fn param_directional<S: Scalar>(
-        _x: &SVector<S, 1>,
-        _p: &SVector<S, 1>,
-        dp: &SVector<S, 1>,
-        out: &mut SVector<S, 1>,
-    ) {
+    fn param_directional<S: Scalar>(_x: &SVector<S, 1>, _p: &SVector<S, 1>, dp: &SVector<S, 1>, out: &mut SVector<S, 1>) {
         out[0] = -dp[0];
     }
 }
@@ -129,12 +109,7 @@ impl Problem<1, 1, 3> for Quadratic {
     fn jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 3>, j: &mut SMatrix<S, 1, 1>) {
         j[(0, 0)] = k::<S>(2.0) * p[0] * x[0] + p[1];
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 1>,
-        p: &SVector<S, 3>,
-        f: &mut SVector<S, 1>,
-        j: &mut SMatrix<S, 1, 1>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 3>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -146,12 +121,7 @@ impl ParamDerivative<1, 1, 3> for Quadratic {
         jp[(0, 1)] = x[0];
         jp[(0, 2)] = S::one();
     }
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, 1>,
-        _p: &SVector<S, 3>,
-        dp: &SVector<S, 3>,
-        out: &mut SVector<S, 1>,
-    ) {
+    fn param_directional<S: Scalar>(x: &SVector<S, 1>, _p: &SVector<S, 3>, dp: &SVector<S, 3>, out: &mut SVector<S, 1>) {
         out[0] = dp[0] * x[0] * x[0] + dp[1] * x[0] + dp[2];
     }
 }
@@ -174,12 +144,7 @@ impl Problem<2, 2, 6> for CircleLine {
         j[(1, 0)] = p[3];
         j[(1, 1)] = p[4];
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, 6>,
-        f: &mut SVector<S, 2>,
-        j: &mut SMatrix<S, 2, 2>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -195,12 +160,7 @@ impl ParamDerivative<2, 2, 6> for CircleLine {
         jp[(1, 4)] = x[1];
         jp[(1, 5)] = -S::one();
     }
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, 6>,
-        dp: &SVector<S, 6>,
-        out: &mut SVector<S, 2>,
-    ) {
+    fn param_directional<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, dp: &SVector<S, 6>, out: &mut SVector<S, 2>) {
         let mut jp = SMatrix::<S, 2, 6>::zeros();
         Self::param_jacobian(x, p, &mut jp);
         jp.mul_to(dp, out);
@@ -221,10 +181,7 @@ pub fn circle_line_intersections(p: &SVector<f64, 6>) -> Option<[SVector<f64, 2>
     let h = h2.sqrt();
     let (fx, fy) = (cx + dist * ux, cy + dist * uy); // foot of the perpendicular
     let (tx, ty) = (-uy, ux);
-    Some([
-        SVector::<f64, 2>::new(fx - h * tx, fy - h * ty),
-        SVector::<f64, 2>::new(fx + h * tx, fy + h * ty),
-    ])
+    Some([SVector::<f64, 2>::new(fx - h * tx, fy - h * ty), SVector::<f64, 2>::new(fx + h * tx, fy + h * ty)])
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -295,23 +252,14 @@ impl Problem<4, 4, Q4_NP> for Quad4 {
             }
         }
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 4>,
-        p: &SVector<S, Q4_NP>,
-        f: &mut SVector<S, 4>,
-        j: &mut SMatrix<S, 4, 4>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, f: &mut SVector<S, 4>, j: &mut SMatrix<S, 4, 4>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
 }
 
 impl ParamDerivative<4, 4, Q4_NP> for Quad4 {
-    fn param_jacobian<S: Scalar>(
-        x: &SVector<S, 4>,
-        p: &SVector<S, Q4_NP>,
-        jp: &mut SMatrix<S, 4, Q4_NP>,
-    ) {
+    fn param_jacobian<S: Scalar>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, jp: &mut SMatrix<S, 4, Q4_NP>) {
         let e = q4_e(x, p);
         let mut jx = SMatrix::<S, 4, 4>::zeros();
         Self::jacobian(x, p, &mut jx);
@@ -328,12 +276,7 @@ impl ParamDerivative<4, 4, Q4_NP> for Quad4 {
             }
         }
     }
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, 4>,
-        p: &SVector<S, Q4_NP>,
-        dp: &SVector<S, Q4_NP>,
-        out: &mut SVector<S, 4>,
-    ) {
+    fn param_directional<S: Scalar>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, dp: &SVector<S, Q4_NP>, out: &mut SVector<S, 4>) {
         let mut jp = SMatrix::<S, 4, Q4_NP>::zeros();
         Self::param_jacobian(x, p, &mut jp);
         jp.mul_to(dp, out);
@@ -378,8 +321,7 @@ impl Problem<2, 3, O_NP> for Over3x2 {
         let (e1, e2) = (x[0] - p[15], x[1] - p[16]);
         for kk in 0..3 {
             let c = 5 * kk;
-            f[kk] = p[c] * e1 + p[c + 1] * e2 + p[c + 2] * e1 * e1 + p[c + 3] * e1 * e2
-                + p[c + 4] * e2 * e2;
+            f[kk] = p[c] * e1 + p[c + 1] * e2 + p[c + 2] * e1 * e1 + p[c + 3] * e1 * e2 + p[c + 4] * e2 * e2;
         }
     }
     fn jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, j: &mut SMatrix<S, 3, 2>) {
@@ -391,23 +333,14 @@ impl Problem<2, 3, O_NP> for Over3x2 {
             j[(kk, 1)] = p[c + 1] + p[c + 3] * e1 + two * p[c + 4] * e2;
         }
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, O_NP>,
-        f: &mut SVector<S, 3>,
-        j: &mut SMatrix<S, 3, 2>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, f: &mut SVector<S, 3>, j: &mut SMatrix<S, 3, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
 }
 
 impl ParamDerivative<2, 3, O_NP> for Over3x2 {
-    fn param_jacobian<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, O_NP>,
-        jp: &mut SMatrix<S, 3, O_NP>,
-    ) {
+    fn param_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, jp: &mut SMatrix<S, 3, O_NP>) {
         let (e1, e2) = (x[0] - p[15], x[1] - p[16]);
         let mut jx = SMatrix::<S, 3, 2>::zeros();
         Self::jacobian(x, p, &mut jx);
@@ -423,12 +356,7 @@ impl ParamDerivative<2, 3, O_NP> for Over3x2 {
             jp[(kk, 16)] = -jx[(kk, 1)];
         }
     }
-    fn param_directional<S: Scalar>(
-        x: &SVector<S, 2>,
-        p: &SVector<S, O_NP>,
-        dp: &SVector<S, O_NP>,
-        out: &mut SVector<S, 3>,
-    ) {
+    fn param_directional<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, dp: &SVector<S, O_NP>, out: &mut SVector<S, 3>) {
         let mut jp = SMatrix::<S, 3, O_NP>::zeros();
         Self::param_jacobian(x, p, &mut jp);
         jp.mul_to(dp, out);
@@ -477,12 +405,7 @@ impl Problem<1, 1, 7> for Poly6 {
         }
         j[(0, 0)] = acc;
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 1>,
-        p: &SVector<S, 7>,
-        f: &mut SVector<S, 1>,
-        j: &mut SMatrix<S, 1, 1>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 7>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -502,12 +425,7 @@ impl Problem<1, 1, 0> for Start6 {
         let x2 = x * x;
         j[(0, 0)] = k::<S>(6.0) * x2 * x2 * x;
     }
-    fn residual_jacobian<S: Scalar>(
-        x: &SVector<S, 1>,
-        p: &SVector<S, 0>,
-        f: &mut SVector<S, 1>,
-        j: &mut SMatrix<S, 1, 1>,
-    ) {
+    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 0>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }

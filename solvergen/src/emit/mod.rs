@@ -104,4 +104,3 @@ pub fn module(decl: &Declaration, lowered: &Lowered) -> TokenStream {
         }
     }
 }
-

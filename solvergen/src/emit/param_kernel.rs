@@ -39,9 +39,8 @@ pub(super) fn param_lanes(one_row: &Unexpanded, shape: RowShape, row_len: usize)
     let outputs: Vec<NodeId> = f.iter().chain(&j).chain(&d).map(|(_, id)| *id).collect();
     let hoisted = dag.hoist_x_only(&outputs);
     let (row_dag, shared) = (&hoisted.row, &hoisted.shared);
-    let remap = |entries: &Outputs| -> Outputs {
-        entries.iter().map(|(t, id)| (t.clone(), hoisted.map[id.0 as usize].unwrap_or(*id))).collect()
-    };
+    let remap =
+        |entries: &Outputs| -> Outputs { entries.iter().map(|(t, id)| (t.clone(), hoisted.map[id.0 as usize].unwrap_or(*id))).collect() };
     let (fr, jr, dr) = (remap(&f), remap(&j), remap(&d));
     let body = render_lanes(row_dag, vars, LeafArrays::SHARED_SLOTS, &[(quote!(f), &fr), (quote!(j), &jr), (quote!(d), &dr)]);
     let shared_entries: Outputs = shared.iter().enumerate().map(|(slot, id)| (n(slot).into_token_stream(), *id)).collect();
@@ -95,10 +94,7 @@ impl ParamLanes {
     /// when the estimate is below the coefficient kernel's (`coefficient_ops`).
     pub fn items(&self, preferred: bool, coefficient_ops: usize) -> TokenStream {
         let (nx, k_t, epr_t, ej, row_len_t, ns_t) = (n(self.nx), n(self.k), n(self.epr), n(self.ej), n(self.row_len), n(self.shared));
-        let doc = format!(
-            " Estimated operations per row: {} from the parameters, {} from the coefficients.",
-            self.ops, coefficient_ops
-        );
+        let doc = format!(" Estimated operations per row: {} from the parameters, {} from the coefficients.", self.ops, coefficient_ops);
         quote! {
             #[doc = #doc]
             const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> =

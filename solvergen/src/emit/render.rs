@@ -48,12 +48,7 @@ pub(super) fn render_scalar(dag: &Dag, vars: &VarTable, outputs: &[(TokenStream,
 
 /// Lane-kernel code (`S: simhc::lanes::Lanes`) assigning `outputs`, with fused products and
 /// the leaves read from `arrays`.
-pub(super) fn render_lanes(
-    dag: &Dag,
-    vars: &VarTable,
-    arrays: LeafArrays,
-    outputs: &[(TokenStream, &Outputs)],
-) -> TokenStream {
+pub(super) fn render_lanes(dag: &Dag, vars: &VarTable, arrays: LeafArrays, outputs: &[(TokenStream, &Outputs)]) -> TokenStream {
     Renderer { dag, vars, arrays, fused: true }.render(outputs)
 }
 

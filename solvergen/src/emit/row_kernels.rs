@@ -5,9 +5,9 @@
 //! code. The kernels depend on the declaration only, so the module emits them once
 //! (`__SimhcRowKernels`) for all instances.
 
+use super::n;
 use super::param_kernel::{param_lanes, ParamLanes};
 use super::render::{render_lanes, render_scalar, LeafArrays, Outputs};
-use super::n;
 use crate::coefficients::repeats_per_row;
 use crate::dag::{Dag, NodeId};
 use crate::lower::VarTable;
@@ -76,11 +76,8 @@ fn kernel_item(name: &str, doc: &str, shape: RowShape, k: usize, with_j: bool, b
     let run = format_ident!("{}_run", name);
     let name = format_ident!("{}", name);
     let (nx, k, epr, ej) = (n(shape.nx), n(k), n(shape.epr), n(shape.epr * shape.nx));
-    let (j_arg, j_field, j_name) = if with_j {
-        (quote!(, j: &mut [S; #ej]), quote!(j: &'a mut [S; #ej],), quote!(j))
-    } else {
-        (quote!(), quote!(), quote!())
-    };
+    let (j_arg, j_field, j_name) =
+        if with_j { (quote!(, j: &mut [S; #ej]), quote!(j: &'a mut [S; #ej],), quote!(j)) } else { (quote!(), quote!(), quote!()) };
     let j_pass = if with_j { quote!(, #j_name) } else { quote!() };
     let j_self = if with_j { quote!(, self.j) } else { quote!() };
     let run_doc = format!(" [`Self::{name}`] with the best instruction set of this CPU.");
@@ -382,8 +379,7 @@ impl RowKernels<'_> {
         let shape = self.shape;
         let first = shape.rows * shape.epr;
         let ng = shape.nf - first;
-        let (nx, k, epr, ej, ng_t, ngj) =
-            (n(shape.nx), n(nc1), n(shape.epr), n(shape.epr * shape.nx), n(ng), n(ng * shape.nx));
+        let (nx, k, epr, ej, ng_t, ngj) = (n(shape.nx), n(nc1), n(shape.epr), n(shape.epr * shape.nx), n(ng), n(ng * shape.nx));
         let mut dag = Dag::default();
         let mut f = Vec::new();
         let mut j = Vec::new();
@@ -446,7 +442,6 @@ impl RowKernels<'_> {
     }
 }
 
-
 /// The global rows of the linear part `sum_k dc_k m_k(x)` into `out`, as scalar code.
 fn global_linear(eqs: &[Poly], vars: &VarTable, shape: RowShape) -> TokenStream {
     let first = shape.rows * shape.epr;
@@ -455,7 +450,6 @@ fn global_linear(eqs: &[Poly], vars: &VarTable, shape: RowShape) -> TokenStream 
     let body = render_scalar(&dag, vars, &[(quote!(out), &f)]);
     quote!({ let c = dc; #body })
 }
-
 
 /// `body` (over the arguments `args`, name and type) run through `simhc::lanes::dispatch`: the
 /// arguments go into a local job struct whose `run` holds the body, so the kernels inlined

@@ -162,8 +162,7 @@ struct Operation<'a, P, const N: usize, const NP: usize, const NC: usize, const 
     scratch: &'a mut [Wide<W, FMA>],
 }
 
-impl<P, const N: usize, const NP: usize, const NC: usize, const W: usize, const FMA: bool> Kernel
-    for Operation<'_, P, N, NP, NC, W, FMA>
+impl<P, const N: usize, const NP: usize, const NC: usize, const W: usize, const FMA: bool> Kernel for Operation<'_, P, N, NP, NC, W, FMA>
 where
     P: CoefficientForm<N, N, NP, NC>,
 {
@@ -214,12 +213,7 @@ where
 /// `c(t)` and `c'(t)` of one row's coefficients, each a polynomial of `K` terms (`row`:
 /// coefficient-major) into `c` and `dc`.
 #[inline(always)]
-fn coefficients<const K: usize, const W: usize, const FMA: bool>(
-    row: &[C],
-    t: &[f64; W],
-    c: &mut [Wide<W, FMA>],
-    dc: &mut [Wide<W, FMA>],
-) {
+fn coefficients<const K: usize, const W: usize, const FMA: bool>(row: &[C], t: &[f64; W], c: &mut [Wide<W, FMA>], dc: &mut [Wide<W, FMA>]) {
     for ((cm, dm), p) in c.iter_mut().zip(dc.iter_mut()).zip(row.chunks_exact(K)) {
         if let Ok(p) = <&[C; K]>::try_from(p) {
             (*cm, *dm) = horner(p, t);
@@ -465,8 +459,7 @@ where
 }
 
 /// The arguments of [`track_lanes`].
-type Run<'a, P, H, const N: usize, const NC: usize> =
-    (&'a LaneSystem<P, N, NC>, &'a H, &'a [SVector<C, N>], &'a [TrackerOptions], LaneIsa);
+type Run<'a, P, H, const N: usize, const NC: usize> = (&'a LaneSystem<P, N, NC>, &'a H, &'a [SVector<C, N>], &'a [TrackerOptions], LaneIsa);
 
 /// [`track_batch_queue`] with `W` paths per operation and fused (`FMA`) or plain arithmetic:
 /// the lane driver of the path state machine.

@@ -267,8 +267,8 @@ impl Isa {
         self.run_for(Same(kernel))
     }
 
-    /// Runs `kernel` compiled for this instruction set (told which), or for the baseline when
-    /// the CPU does not run it.
+    /// Runs `kernel` compiled for this instruction set (told which), or for the widest narrower
+    /// one the CPU runs (AVX2, else the baseline).
     #[inline(always)]
     pub fn run_for<K: IsaKernel>(self, kernel: K) {
         match self {
@@ -281,7 +281,7 @@ impl Isa {
                 }
             }
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 if self.available() => {
+            Isa::Avx512 | Isa::Avx2 if Isa::Avx2.available() => {
                 // SAFETY: `run_avx2` requires AVX2 and FMA, just checked.
                 #[allow(unsafe_code)]
                 unsafe {

@@ -577,6 +577,8 @@ impl GrpsSolver {
             extra_attempts: o.extra_attempts,
             fallback: o.all_roots_fallback && o.max_attempts > 1,
             newton: o.newton,
+            // End points the tracker returns short of its final tolerance are polished (module docs).
+            polish: true,
         };
         run(Pipeline::new(&target, &starts, &geometric, &validator)
             .with_other_simulators(&others)
@@ -588,20 +590,23 @@ impl GrpsSolver {
     /// indexes the hypotheses.
     fn schedule(&self, base_kind: StartKind) -> (Vec<StartKind>, Vec<Attempt>) {
         let o = &self.options;
-        let first: Vec<pipeline::Method> = o.methods.iter().flatten().filter_map(|m| m.in_pipeline()).collect();
+        let first: Vec<Option<pipeline::Method>> = o.methods.iter().flatten().map(|m| m.in_pipeline()).collect();
         let mut kinds = vec![base_kind];
         if base_kind == StartKind::Prediction {
             kinds.extend([StartKind::PredictedRotation, StartKind::Swapped, StartKind::SwappedRotation]);
         }
-        let mut schedule: Vec<Attempt> =
-            (0..kinds.len()).flat_map(|provider| first.iter().map(move |&method| Attempt { provider, method })).collect();
-        if let Some(method) = o.restart_method.and_then(Method::in_pipeline) {
+        let mut slots: Vec<(usize, Option<pipeline::Method>)> =
+            (0..kinds.len()).flat_map(|provider| first.iter().map(move |&method| (provider, method))).collect();
+        if let Some(restart) = o.restart_method {
             for k in 0..(o.restart_angles_deg.len() * AXES.len()) as u8 {
-                schedule.push(Attempt { provider: kinds.len(), method });
+                slots.push((kinds.len(), restart.in_pipeline()));
                 kinds.push(StartKind::Perturbed(k));
             }
         }
-        schedule.truncate(o.max_attempts);
+        slots.truncate(o.max_attempts);
+        // `Method::AllRoots` is the fallback, not an attempt: its slots count towards
+        // `max_attempts` and stay empty.
+        let schedule = slots.into_iter().filter_map(|(provider, method)| Some(Attempt { provider, method: method? })).collect();
         (kinds, schedule)
     }
 

@@ -10,7 +10,7 @@ use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
 use simhc_problems::upnp::geometry::{translation_from_rotation, upnp_system};
 use simhc_problems::upnp::refine::{levenberg_marquardt, LmOptions};
 use simhc_problems::upnp::scene::{PointBox, UpnpCorrespondence, UpnpScene, UpnpSceneConfig};
-use simhc_problems::upnp::solver::{SolveError, StartKind, UpnpSolveReport, UpnpSolver, UpnpSolverOptions};
+use simhc_problems::upnp::solver::{Method as UpnpMethod, SolveError, StartKind, UpnpSolveReport, UpnpSolver, UpnpSolverOptions};
 use std::time::Instant;
 
 /// Success as in the paper's Table 1: rotation error below 2 degrees.
@@ -205,7 +205,13 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
         let result = shipped.solve_report(corrs);
         full.outcomes.push(solved(&result, scene, us(t0.elapsed())));
         if let Ok(r) = &result {
-            shipped_attempts[r.attempts.clamp(1, 3) - 1] += 1;
+            // By what produced the pose: a start with no path (a failed linear start) is not an
+            // attempt, so the attempt count does not say which start it was.
+            let slot = match r.method {
+                UpnpMethod::AllRoots => 2,
+                UpnpMethod::SimulatorHc => shipped.options.starts.iter().position(|s| *s == Some(r.start_kind)).unwrap_or(0).min(1),
+            };
+            shipped_attempts[slot] += 1;
         }
 
         // All-roots HC: every path of the Lagrange system from the shipped start system, the

@@ -22,13 +22,17 @@ pub struct PipelineOptions {
     pub extra_attempts: usize,
     /// Whether to ask the [`Fallback`] when no path validated. Default `true`.
     pub fallback: bool,
-    /// Settings of [`Method::GaussNewton`] attempts.
+    /// Settings of [`Method::GaussNewton`] attempts, and of the polish.
     pub newton: NewtonOptions,
+    /// Whether an end point that a tracker without `require_final_convergence` returns short of
+    /// the accuracy `1e-7` is polished by Gauss-Newton (and fails when that does not converge)
+    /// before validation. Default `false`: it is validated as it is.
+    pub polish: bool,
 }
 
 impl Default for PipelineOptions {
     fn default() -> Self {
-        Self { tracker: TrackerOptions::single_path(), extra_attempts: 0, fallback: true, newton: NewtonOptions::default() }
+        Self { tracker: TrackerOptions::single_path(), extra_attempts: 0, fallback: true, newton: NewtonOptions::default(), polish: false }
     }
 }
 
@@ -258,6 +262,12 @@ where
                     continue;
                 }
             };
+            if let Method::OtherSimulatorHc(k) = method {
+                if k >= self.other_simulators.len() {
+                    last = Some(AttemptError::Start(StartError { provider: "schedule", reason: format!("no other simulator {k}") }));
+                    continue;
+                }
+            }
             attempts += 1;
             let (x, stats) = match self.attempt(data, &x0, &p, method, &mut times) {
                 Ok(r) => r,

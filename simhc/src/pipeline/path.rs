@@ -5,14 +5,14 @@
 
 use super::{AttemptError, PipelineOptions, StageTimes, StartSimulator};
 use crate::homotopy::CoefficientLine;
-use crate::tracker::{solve_newton, track, NewtonOptions, TrackError, TrackResult, TrackStats, TrackerOptions};
+use crate::tracker::{solve_newton, track, NewtonOptions, TrackError, TrackResult, TrackStats};
 use crate::CoefficientForm;
 use nalgebra::SVector;
 use std::time::Instant;
 
 /// Tracks `x0` from the simulated start problem to the target parameters `p`; adds the
-/// simulator's and the tracker's time to `times`. With a tracker that returns end points that
-/// missed its final tolerance (`require_final_convergence: false`), such an end point is
+/// simulator's and the tracker's time to `times`. With [`PipelineOptions::polish`], an end point
+/// that a tracker without `require_final_convergence` returned short of its final tolerance is
 /// polished by [`gauss_newton`] with `options.newton` (on noisy overdetermined systems
 /// Gauss-Newton converges only linearly at the least-squares point); validation decides.
 pub fn simulator_hc<P, D, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize>(
@@ -34,26 +34,26 @@ where
     let p0 = p0?;
     let tt = Instant::now();
     let h = CoefficientLine::<P, f64, NP, NC>::new::<NX, NF>(&p0, p);
-    let result = track(&h, x0, &options.tracker).and_then(|r| polish::<P, NX, NF, NP>(r, p, &options.tracker, &options.newton));
+    let result = track(&h, x0, &options.tracker).and_then(|r| polish::<P, NX, NF, NP>(r, p, options));
     times.tracking += tt.elapsed();
     Ok(result?)
 }
 
-/// The end point of a path, polished by [`gauss_newton`] when the tracker returned it short of
-/// the accuracy `1e-7` (only a tracker without `require_final_convergence` does).
+/// The end point of a path, polished by [`gauss_newton`] when [`PipelineOptions::polish`] asks
+/// and the tracker returned it short of the accuracy `1e-7` (only a tracker without
+/// `require_final_convergence` does).
 fn polish<P, const NX: usize, const NF: usize, const NP: usize>(
     r: TrackResult<f64, NX>,
     p: &SVector<f64, NP>,
-    tracker: &TrackerOptions,
-    newton: &NewtonOptions,
+    options: &PipelineOptions,
 ) -> Result<(SVector<f64, NX>, TrackStats), TrackError>
 where
     P: crate::Problem<NX, NF, NP>,
 {
-    if tracker.require_final_convergence || r.accuracy <= 1e-7 {
+    if !options.polish || options.tracker.require_final_convergence || r.accuracy <= 1e-7 {
         return Ok((r.x, r.stats));
     }
-    let (x, polish) = gauss_newton::<P, NX, NF, NP>(&r.x, p, newton)?;
+    let (x, polish) = gauss_newton::<P, NX, NF, NP>(&r.x, p, &options.newton)?;
     let mut stats = r.stats;
     stats.newton_iterations += polish.newton_iterations;
     Ok((x, stats))

@@ -10,6 +10,7 @@ use simhc::pipeline::{
     Attempt, AttemptError, Canonicalize, Fallback, Generic, Method, Origin, Pipeline, PipelineError, PipelineOptions, StartError,
     StartProvider, StartSimulator, TargetParameters, Validator, Verdict,
 };
+use simhc::tracker::{Predictor, TrackerOptions};
 use simhc::{MinNormSimulator, SimulatorError};
 use simhc_problems::metrics::{quat_from_rotation, random_rotation_perturbation, rotation_error_deg, rotation_from_quat};
 use simhc_problems::upnp::scene::random_rotation;
@@ -382,4 +383,32 @@ impl StartSimulator<Data, 7, 10, 18> for Broken {
     fn simulate(&self, _data: &Data, _x0: &SVector<f64, 7>, _p: &SVector<f64, 18>) -> Result<SVector<f64, 18>, SimulatorError> {
         Err(SimulatorError::Singular)
     }
+}
+
+#[test]
+fn the_polish_refines_end_points_a_lenient_tracker_returns_short() {
+    let seed = 12;
+    println!("seed {seed}");
+    let (data, truth, r) = scene(seed);
+    let near_start = Fixed("near", near(&truth, &r, 10.0, seed));
+    let starts: [&dyn StartProvider<Data, 7>; 1] = [&near_start];
+    let sim = simulator();
+    // One Euler step of the whole path, one corrector update, no final refinement: the end point
+    // is returned short of the final tolerance, as the paper's tracker returns them.
+    let lenient =
+        TrackerOptions { predictor: Predictor::Euler, max_newton_iterations: 1, final_newton_iterations: 0, ..TrackerOptions::paper(1.0) };
+    let pipeline = |options| {
+        Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_options(options)
+    };
+    let options = PipelineOptions { tracker: lenient, fallback: false, ..PipelineOptions::default() };
+    let short = match pipeline(options).solve(&data) {
+        Err(PipelineError::NotValidated(best)) => *best,
+        other => panic!("expected the lenient end point to be flagged, got {other:?}"),
+    };
+    println!("without the polish: max angle {:e}, {} Newton iterations", short.check.0, short.stats.newton_iterations);
+    let polished = pipeline(PipelineOptions { polish: true, ..options }).solve(&data).expect("the polished end point validates");
+    println!("with the polish: max angle {:e}, {} Newton iterations", polished.check.0, polished.stats.newton_iterations);
+    assert!(polished.check.0 <= STRICT.accept);
+    assert!(polished.stats.newton_iterations > short.stats.newton_iterations);
+    assert!(rotation_error_deg(&pose(&polished.x).0, &r) < 1e-6);
 }

@@ -412,3 +412,21 @@ fn the_polish_refines_end_points_a_lenient_tracker_returns_short() {
     assert!(polished.stats.newton_iterations > short.stats.newton_iterations);
     assert!(rotation_error_deg(&pose(&polished.x).0, &r) < 1e-6);
 }
+
+#[test]
+fn a_start_attempt_validates_the_start_as_it_is() {
+    let seed = 13;
+    println!("seed {seed}");
+    let (data, truth, r) = scene(seed);
+    let (exact, off) = (Fixed("exact", truth), Fixed("near", near(&truth, &r, 10.0, seed)));
+    let starts: [&dyn StartProvider<Data, 7>; 2] = [&off, &exact];
+    let schedule = [Attempt { provider: 0, method: Method::Start }, Attempt { provider: 1, method: Method::Start }];
+    let sim = simulator();
+    let pipeline =
+        Pipeline::<p3p::P3p3, _, _, _, _, 7, 10, 18, { p3p::P3p3::NC }>::new(&Target, &starts, &sim, &STRICT).with_schedule(&schedule);
+    let solved = pipeline.solve(&data).expect("the exact start validates");
+    // The 10-degree start is rejected as it is (no path, no Newton step); the exact one is returned.
+    assert_eq!((solved.origin, solved.attempts), (Origin::Path { provider: 1, method: Method::Start }, 2));
+    assert_eq!(solved.x, truth);
+    assert_eq!(solved.stats.newton_iterations, 0);
+}

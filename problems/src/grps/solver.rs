@@ -143,7 +143,8 @@ impl Method {
         match method {
             pipeline::Method::SimulatorHc => Method::Hc(SimulatorKind::Geometric),
             pipeline::Method::OtherSimulatorHc(_) => Method::Hc(SimulatorKind::Generic),
-            pipeline::Method::GaussNewton => Method::GaussNewton,
+            // GRPS schedules have no `Start` attempts; its starts are never validated as they are.
+            pipeline::Method::GaussNewton | pipeline::Method::Start => Method::GaussNewton,
         }
     }
 }

@@ -212,6 +212,7 @@ where
                 times.tracking += t.elapsed();
                 end.map_err(AttemptError::from)
             }
+            Method::Start => Ok((*x0, TrackStats::default())),
         }
     }
 

@@ -154,6 +154,9 @@ pub enum Method {
     OtherSimulatorHc(usize),
     /// Gauss-Newton on the target system from the start (no homotopy).
     GaussNewton,
+    /// The start itself, validated as it is: for a provider that already refines on all the
+    /// data (a least-squares point that the tracked rows' own root would move away from).
+    Start,
 }
 
 /// One scheduled attempt: a start provider (index into the pipeline's providers) and a method.

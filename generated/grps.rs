@@ -9685,84 +9685,31 @@ pub mod grps {
                 first += ::simhc::lanes::LANES;
             }
         }
-        const PATH_LANES: ::core::option::Option<usize> = ::core::option::Option::Some(
-            1,
+        type RowLanes = Self;
+        const ROW_LANES: ::core::option::Option<Self> = ::core::option::Option::Some(
+            Self,
         );
-        #[inline(always)]
-        fn lanes_row<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            c: &[S],
-            dc: &[S],
-            f: &mut [S],
-            j: &mut [S],
-            d: &mut [S],
-        ) {
-            let (Ok(c), Ok(dc), Ok(f), Ok(j), Ok(d)) = (
-                <&[S; 38]>::try_from(c),
-                <&[S; 38]>::try_from(dc),
-                <&mut [S; 1]>::try_from(f),
-                <&mut [S; 8]>::try_from(j),
-                <&mut [S; 1]>::try_from(d),
-            ) else {
-                return;
-            };
-            __SimhcRowKernels::__row_coeff_residual_jacobian(x, c, f, j);
-            __SimhcRowKernels::__row_coeff_linear(x, dc, d);
-        }
-        #[inline(always)]
-        #[allow(unused_variables)]
-        fn lanes_globals<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            f: &mut [S],
-            j: &mut [S],
-        ) {
-            let (Ok(f), Ok(j)) = (<&mut [S; 1]>::try_from(f), <&mut [S; 8]>::try_from(j))
-            else {
-                return;
-            };
-            __SimhcRowKernels::__global_lanes(x, f, j);
-        }
-        /// Estimated operations per row: 317 from the parameters, 578 from the coefficients.
-        const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> = ::core::option::Option::Some(::simhc::ParamRowLayout {
-            row_len: 12,
-            inputs: 12,
-            shared: 9,
-            preferred: true,
-        });
-        #[inline(always)]
-        fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; 8], out: &mut [S]) {
-            if let Ok(out) = <&mut [S; 9]>::try_from(out) {
-                __SimhcRowKernels::__row_param_shared(x, out);
+        type PathLanes = Self;
+        const PATH_LANES: ::core::option::Option<Self> = ::core::option::Option::Some(
+            Self,
+        );
+        type ParamLanes = Self;
+        const PARAM_LANES: ::core::option::Option<Self> = ::core::option::Option::Some(
+            Self,
+        );
+    }
+    #[allow(clippy::all, unused_variables)]
+    impl ::simhc::RowLanes<8, 8> for Grps7 {
+        #[inline]
+        fn layout(self) -> ::simhc::RowLayout {
+            ::simhc::RowLayout {
+                rows: 7,
+                per_row: 38,
             }
         }
-        #[inline(always)]
-        fn lanes_row_params<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            shared: &[S],
-            p: &[S],
-            dp: &[S],
-            f: &mut [S],
-            j: &mut [S],
-            d: &mut [S],
-        ) {
-            let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
-                <&[S; 9]>::try_from(shared),
-                <&[S; 12]>::try_from(p),
-                <&[S; 12]>::try_from(dp),
-                <&mut [S; 1]>::try_from(f),
-                <&mut [S; 8]>::try_from(j),
-                <&mut [S; 1]>::try_from(d),
-            ) else {
-                return;
-            };
-            __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
-        }
-        const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
-            7,
-            38,
-        ));
         #[inline]
         fn coefficient_part_poly<S: ::simhc::Scalar>(
+            self,
             x: &::simhc::__private::nalgebra::SVector<S, 8>,
             t: f64,
             poly: &[<S as ::simhc::Scalar>::Lanes],
@@ -9811,6 +9758,104 @@ pub mod grps {
                 }
             }
             ::simhc::lanes::dispatch(Job { x, t, poly, out });
+        }
+    }
+    #[allow(clippy::all, unused_variables)]
+    impl ::simhc::PathLanes<8, 8> for Grps7 {
+        #[inline]
+        fn equations_per_row(self) -> usize {
+            1
+        }
+        #[inline(always)]
+        fn row<S: ::simhc::lanes::Lanes>(
+            self,
+            x: &[S; 8],
+            c: &[S],
+            dc: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(c), Ok(dc), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 38]>::try_from(c),
+                <&[S; 38]>::try_from(dc),
+                <&mut [S; 1]>::try_from(f),
+                <&mut [S; 8]>::try_from(j),
+                <&mut [S; 1]>::try_from(d),
+            ) else {
+                debug_assert!(
+                    false, "PathLanes::row: slice lengths differ from the layout"
+                );
+                return;
+            };
+            __SimhcRowKernels::__row_coeff_residual_jacobian(x, c, f, j);
+            __SimhcRowKernels::__row_coeff_linear(x, dc, d);
+        }
+        #[inline(always)]
+        #[allow(unused_variables)]
+        fn globals<S: ::simhc::lanes::Lanes>(
+            self,
+            x: &[S; 8],
+            f: &mut [S],
+            j: &mut [S],
+        ) {
+            let (Ok(f), Ok(j)) = (<&mut [S; 1]>::try_from(f), <&mut [S; 8]>::try_from(j))
+            else {
+                debug_assert!(
+                    false, "PathLanes::globals: slice lengths differ from the layout"
+                );
+                return;
+            };
+            __SimhcRowKernels::__global_lanes(x, f, j);
+        }
+    }
+    /// Estimated operations per row: 317 from the parameters, 578 from the coefficients.
+    #[allow(clippy::all, unused_variables)]
+    impl ::simhc::ParamLanes<8, 8> for Grps7 {
+        #[inline]
+        fn param_layout(self) -> ::simhc::ParamRowLayout {
+            ::simhc::ParamRowLayout {
+                row_len: 12,
+                inputs: 12,
+                shared: 9,
+                preferred: true,
+            }
+        }
+        #[inline(always)]
+        fn shared<S: ::simhc::lanes::Lanes>(self, x: &[S; 8], out: &mut [S]) {
+            let Ok(out) = <&mut [S; 9]>::try_from(out) else {
+                debug_assert!(
+                    false, "ParamLanes::shared: slice length differs from the layout"
+                );
+                return;
+            };
+            __SimhcRowKernels::__row_param_shared(x, out);
+        }
+        #[inline(always)]
+        fn row_params<S: ::simhc::lanes::Lanes>(
+            self,
+            x: &[S; 8],
+            shared: &[S],
+            p: &[S],
+            dp: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 9]>::try_from(shared),
+                <&[S; 12]>::try_from(p),
+                <&[S; 12]>::try_from(dp),
+                <&mut [S; 1]>::try_from(f),
+                <&mut [S; 8]>::try_from(j),
+                <&mut [S; 1]>::try_from(d),
+            ) else {
+                debug_assert!(
+                    false, "ParamLanes::row_params: slice lengths differ from the layout"
+                );
+                return;
+            };
+            __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
         }
     }
     /// `grps8`: 9 equations in 8 unknowns with 96 parameters (8 rows).
@@ -19078,84 +19123,31 @@ pub mod grps {
                 first += ::simhc::lanes::LANES;
             }
         }
-        const PATH_LANES: ::core::option::Option<usize> = ::core::option::Option::Some(
-            1,
+        type RowLanes = Self;
+        const ROW_LANES: ::core::option::Option<Self> = ::core::option::Option::Some(
+            Self,
         );
-        #[inline(always)]
-        fn lanes_row<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            c: &[S],
-            dc: &[S],
-            f: &mut [S],
-            j: &mut [S],
-            d: &mut [S],
-        ) {
-            let (Ok(c), Ok(dc), Ok(f), Ok(j), Ok(d)) = (
-                <&[S; 38]>::try_from(c),
-                <&[S; 38]>::try_from(dc),
-                <&mut [S; 1]>::try_from(f),
-                <&mut [S; 8]>::try_from(j),
-                <&mut [S; 1]>::try_from(d),
-            ) else {
-                return;
-            };
-            __SimhcRowKernels::__row_coeff_residual_jacobian(x, c, f, j);
-            __SimhcRowKernels::__row_coeff_linear(x, dc, d);
-        }
-        #[inline(always)]
-        #[allow(unused_variables)]
-        fn lanes_globals<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            f: &mut [S],
-            j: &mut [S],
-        ) {
-            let (Ok(f), Ok(j)) = (<&mut [S; 1]>::try_from(f), <&mut [S; 8]>::try_from(j))
-            else {
-                return;
-            };
-            __SimhcRowKernels::__global_lanes(x, f, j);
-        }
-        /// Estimated operations per row: 316 from the parameters, 578 from the coefficients.
-        const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> = ::core::option::Option::Some(::simhc::ParamRowLayout {
-            row_len: 12,
-            inputs: 12,
-            shared: 9,
-            preferred: true,
-        });
-        #[inline(always)]
-        fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; 8], out: &mut [S]) {
-            if let Ok(out) = <&mut [S; 9]>::try_from(out) {
-                __SimhcRowKernels::__row_param_shared(x, out);
+        type PathLanes = Self;
+        const PATH_LANES: ::core::option::Option<Self> = ::core::option::Option::Some(
+            Self,
+        );
+        type ParamLanes = Self;
+        const PARAM_LANES: ::core::option::Option<Self> = ::core::option::Option::Some(
+            Self,
+        );
+    }
+    #[allow(clippy::all, unused_variables)]
+    impl ::simhc::RowLanes<8, 9> for Grps8 {
+        #[inline]
+        fn layout(self) -> ::simhc::RowLayout {
+            ::simhc::RowLayout {
+                rows: 8,
+                per_row: 38,
             }
         }
-        #[inline(always)]
-        fn lanes_row_params<S: ::simhc::lanes::Lanes>(
-            x: &[S; 8],
-            shared: &[S],
-            p: &[S],
-            dp: &[S],
-            f: &mut [S],
-            j: &mut [S],
-            d: &mut [S],
-        ) {
-            let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
-                <&[S; 9]>::try_from(shared),
-                <&[S; 12]>::try_from(p),
-                <&[S; 12]>::try_from(dp),
-                <&mut [S; 1]>::try_from(f),
-                <&mut [S; 8]>::try_from(j),
-                <&mut [S; 1]>::try_from(d),
-            ) else {
-                return;
-            };
-            __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
-        }
-        const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((
-            8,
-            38,
-        ));
         #[inline]
         fn coefficient_part_poly<S: ::simhc::Scalar>(
+            self,
             x: &::simhc::__private::nalgebra::SVector<S, 8>,
             t: f64,
             poly: &[<S as ::simhc::Scalar>::Lanes],
@@ -19204,6 +19196,104 @@ pub mod grps {
                 }
             }
             ::simhc::lanes::dispatch(Job { x, t, poly, out });
+        }
+    }
+    #[allow(clippy::all, unused_variables)]
+    impl ::simhc::PathLanes<8, 9> for Grps8 {
+        #[inline]
+        fn equations_per_row(self) -> usize {
+            1
+        }
+        #[inline(always)]
+        fn row<S: ::simhc::lanes::Lanes>(
+            self,
+            x: &[S; 8],
+            c: &[S],
+            dc: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(c), Ok(dc), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 38]>::try_from(c),
+                <&[S; 38]>::try_from(dc),
+                <&mut [S; 1]>::try_from(f),
+                <&mut [S; 8]>::try_from(j),
+                <&mut [S; 1]>::try_from(d),
+            ) else {
+                debug_assert!(
+                    false, "PathLanes::row: slice lengths differ from the layout"
+                );
+                return;
+            };
+            __SimhcRowKernels::__row_coeff_residual_jacobian(x, c, f, j);
+            __SimhcRowKernels::__row_coeff_linear(x, dc, d);
+        }
+        #[inline(always)]
+        #[allow(unused_variables)]
+        fn globals<S: ::simhc::lanes::Lanes>(
+            self,
+            x: &[S; 8],
+            f: &mut [S],
+            j: &mut [S],
+        ) {
+            let (Ok(f), Ok(j)) = (<&mut [S; 1]>::try_from(f), <&mut [S; 8]>::try_from(j))
+            else {
+                debug_assert!(
+                    false, "PathLanes::globals: slice lengths differ from the layout"
+                );
+                return;
+            };
+            __SimhcRowKernels::__global_lanes(x, f, j);
+        }
+    }
+    /// Estimated operations per row: 316 from the parameters, 578 from the coefficients.
+    #[allow(clippy::all, unused_variables)]
+    impl ::simhc::ParamLanes<8, 9> for Grps8 {
+        #[inline]
+        fn param_layout(self) -> ::simhc::ParamRowLayout {
+            ::simhc::ParamRowLayout {
+                row_len: 12,
+                inputs: 12,
+                shared: 9,
+                preferred: true,
+            }
+        }
+        #[inline(always)]
+        fn shared<S: ::simhc::lanes::Lanes>(self, x: &[S; 8], out: &mut [S]) {
+            let Ok(out) = <&mut [S; 9]>::try_from(out) else {
+                debug_assert!(
+                    false, "ParamLanes::shared: slice length differs from the layout"
+                );
+                return;
+            };
+            __SimhcRowKernels::__row_param_shared(x, out);
+        }
+        #[inline(always)]
+        fn row_params<S: ::simhc::lanes::Lanes>(
+            self,
+            x: &[S; 8],
+            shared: &[S],
+            p: &[S],
+            dp: &[S],
+            f: &mut [S],
+            j: &mut [S],
+            d: &mut [S],
+        ) {
+            let (Ok(shared), Ok(p), Ok(dp), Ok(f), Ok(j), Ok(d)) = (
+                <&[S; 9]>::try_from(shared),
+                <&[S; 12]>::try_from(p),
+                <&[S; 12]>::try_from(dp),
+                <&mut [S; 1]>::try_from(f),
+                <&mut [S; 8]>::try_from(j),
+                <&mut [S; 1]>::try_from(d),
+            ) else {
+                debug_assert!(
+                    false, "ParamLanes::row_params: slice lengths differ from the layout"
+                );
+                return;
+            };
+            __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
         }
     }
 }

@@ -8063,5 +8063,11 @@ pub mod upnp {
             out[2] = t350;
             out[3] = t447;
         }
+        type RowLanes = ::simhc::NoLanes;
+        const ROW_LANES: ::core::option::Option<::simhc::NoLanes> = ::core::option::Option::None;
+        type PathLanes = ::simhc::NoLanes;
+        const PATH_LANES: ::core::option::Option<::simhc::NoLanes> = ::core::option::Option::None;
+        type ParamLanes = ::simhc::NoLanes;
+        const PARAM_LANES: ::core::option::Option<::simhc::NoLanes> = ::core::option::Option::None;
     }
 }

@@ -4,7 +4,7 @@
 //! Why: every row of a declared problem runs the *same* straight-line code on its own
 //! parameters, so the rows are the natural SIMD dimension for tracking one path. When many
 //! paths of one homotopy are tracked (all-roots solving), the same kernels run with one *path*
-//! per lane instead ([`crate::CoefficientForm::lanes_row`], [`crate::tracker::batch`]). A lane value is a struct of `[f64; LANES]` arrays ([`F64x4`], and [`C64x4`]
+//! per lane instead ([`crate::PathLanes::row`], [`crate::tracker::batch`]). A lane value is a struct of `[f64; LANES]` arrays ([`F64x4`], and [`C64x4`]
 //! with split real and imaginary parts, so a complex product is six lane-wise operations and
 //! never a shuffle); the element-wise loops compile to vector instructions. Generated row
 //! kernels are generic over [`Lanes`]; [`crate::Scalar::Lanes`] names the lane type of a scalar,

@@ -21,7 +21,9 @@ pub mod simulator;
 pub mod tracker;
 
 pub use layout::{FieldKind, FieldLayout, Layout, ProblemLayout};
-pub use problem::{CoefficientForm, ParamDerivative, ParamRowLayout, Problem, ProblemInfo};
+pub use problem::{
+    CoefficientForm, NoLanes, ParamDerivative, ParamLanes, ParamRowLayout, PathLanes, Problem, ProblemInfo, RowLanes, RowLayout,
+};
 pub use scalar::Scalar;
 pub use simhc_macros::simhc_problem;
 pub use simulator::{MinNormSimulator, OnlineSimulator, SimulatorError};

@@ -218,7 +218,7 @@ where
     }
 }
 
-/// The path-lane row kernel from the parameters ([`CoefficientForm::lanes_row_params`], the
+/// The path-lane row kernel from the parameters ([`simhc::ParamLanes::row_params`], the
 /// declaration lowered without expansion, differentiated on its DAG) against the parameter form
 /// (`residual_jacobian`, `param_directional`, both checked against central differences in
 /// [`check`]): `LANES` different complex paths, one per lane, every row. Returns whether the
@@ -228,9 +228,11 @@ where
     P: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP>,
 {
     use simhc::lanes::{C64x4, Lanes, LANES};
-    let (Some(epr), Some((rows, _)), Some(layout)) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES) else {
+    use simhc::{ParamLanes, PathLanes, RowLanes};
+    let Some(kernels) = P::PARAM_LANES else {
         return false;
     };
+    let (rows, epr, layout) = (kernels.layout().rows, kernels.equations_per_row(), kernels.param_layout());
     let (row_len, k) = (layout.row_len, layout.inputs);
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x1a7e5);
     let xs: Vec<SVector<C, NX>> = (0..LANES).map(|_| random_vec(&mut rng, true)).collect();
@@ -252,7 +254,7 @@ where
         })
         .collect();
     let mut shared = vec![C64x4::from_real(f64::NAN); layout.shared];
-    P::lanes_params_shared(&xl, &mut shared);
+    kernels.shared(&xl, &mut shared);
     for r in 0..rows {
         // Row r's inputs: its own parameters, then the globals stored after all rows.
         let src = |i: usize| if i < row_len { r * row_len + i } else { rows * row_len + (i - row_len) };
@@ -267,7 +269,7 @@ where
         let mut f = vec![C64x4::from_real(f64::NAN); epr];
         let mut j = vec![C64x4::from_real(f64::NAN); epr * NX];
         let mut d = vec![C64x4::from_real(f64::NAN); epr];
-        P::lanes_row_params(&xl, &shared, &pl, &dpl, &mut f, &mut j, &mut d);
+        kernels.row_params(&xl, &shared, &pl, &dpl, &mut f, &mut j, &mut d);
         for (l, (fe, je, de)) in expected.iter().enumerate() {
             let (fs, js, ds) = (fe.camax(), je.camax(), de.camax());
             for e in 0..epr {
@@ -305,40 +307,50 @@ proptest! {
 
     #[test]
     fn circle_line_derivatives(seed in any::<u64>()) {
-        check_both::<circle_line::CircleLine, 2, 2, 6>(seed);
-        check_coefficients_both::<circle_line::CircleLine, 2, 2, 6, 6>(seed);
+        simhc_tests::on_large_stack(move || {
+            check_both::<circle_line::CircleLine, 2, 2, 6>(seed);
+            check_coefficients_both::<circle_line::CircleLine, 2, 2, 6, 6>(seed);
+        });
     }
 
     #[test]
     fn p3p_derivatives(seed in any::<u64>()) {
-        check_both::<p3p::P3p, 3, 3, 12>(seed);
+        simhc_tests::on_large_stack(move || {
+            check_both::<p3p::P3p, 3, 3, 12>(seed);
+        });
     }
 
     #[test]
     fn kitchen_sink_derivatives(seed in any::<u64>()) {
-        check_both::<kitchen_sink::KitchenSink3, 5, 5, 27>(seed);
-        check_coefficients_both::<kitchen_sink::KitchenSink3, 5, 5, 27, 63>(seed);
-        prop_assert!(check_param_lanes::<kitchen_sink::KitchenSink3, 5, 5, 27, 63>(seed));
-        check_both::<kitchen_sink::KitchenSink4, 5, 6, 31>(seed);
+        simhc_tests::on_large_stack(move || {
+            check_both::<kitchen_sink::KitchenSink3, 5, 5, 27>(seed);
+            check_coefficients_both::<kitchen_sink::KitchenSink3, 5, 5, 27, 63>(seed);
+            assert!(check_param_lanes::<kitchen_sink::KitchenSink3, 5, 5, 27, 63>(seed));
+            check_both::<kitchen_sink::KitchenSink4, 5, 6, 31>(seed);
+        });
     }
 
     #[test]
     fn grps_derivatives(seed in any::<u64>()) {
-        check_both::<grps::Grps7, 8, 8, 84>(seed);
-        check_both::<grps::Grps8, 8, 9, 96>(seed);
-        check_coefficients_both::<grps::Grps7, 8, 8, 84, 266>(seed);
-        check_coefficients_both::<grps::Grps8, 8, 9, 96, 304>(seed);
-        prop_assert!(check_param_lanes::<grps::Grps7, 8, 8, 84, 266>(seed));
-        // The operation counts favour the unexpanded rows (rotation(q) kept): the batch
-        // tracker uses them by default.
-        prop_assert!(<grps::Grps7 as CoefficientForm<8, 8, 84, 266>>::PARAM_LANES.is_some_and(|l| l.preferred));
-        prop_assert!(check_param_lanes::<grps::Grps8, 8, 9, 96, 304>(seed));
+        simhc_tests::on_large_stack(move || {
+            check_both::<grps::Grps7, 8, 8, 84>(seed);
+            check_both::<grps::Grps8, 8, 9, 96>(seed);
+            check_coefficients_both::<grps::Grps7, 8, 8, 84, 266>(seed);
+            check_coefficients_both::<grps::Grps8, 8, 9, 96, 304>(seed);
+            assert!(check_param_lanes::<grps::Grps7, 8, 8, 84, 266>(seed));
+            // The operation counts favour the unexpanded rows (rotation(q) kept): the batch
+            // tracker uses them by default.
+            assert!(<grps::Grps7 as CoefficientForm<8, 8, 84, 266>>::PARAM_LANES.is_some_and(|k| simhc::ParamLanes::param_layout(k).preferred));
+            assert!(check_param_lanes::<grps::Grps8, 8, 9, 96, 304>(seed));
+        });
     }
 
     #[test]
     fn upnp_derivatives(seed in any::<u64>()) {
-        check_both::<upnp::Upnp, 4, 5, 66>(seed);
-        check_coefficients_both::<upnp::Upnp, 4, 5, 66, 35>(seed);
+        simhc_tests::on_large_stack(move || {
+            check_both::<upnp::Upnp, 4, 5, 66>(seed);
+            check_coefficients_both::<upnp::Upnp, 4, 5, 66, 35>(seed);
+        });
     }
 }
 

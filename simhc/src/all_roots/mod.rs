@@ -21,7 +21,7 @@ use crate::lanes::{C64x4, Lanes, LANES};
 use crate::monodromy::{relative_distance, SignFlip, C};
 use crate::tracker::batch::{batch_supported, track_batch_queue, LaneIsa, LaneSystem};
 use crate::tracker::{newton, track, AdaptiveStep, NewtonOptions, Predictor, StepControl, TrackError, TrackStats, TrackerOptions};
-use crate::{CoefficientForm, ParamDerivative};
+use crate::{CoefficientForm, ParamDerivative, ParamLanes, RowLanes, RowLayout};
 use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -84,10 +84,10 @@ pub struct AllRootsOptions {
     /// this CPU runs. One this CPU does not run tracks one path at a time.
     pub lane_isa: Option<LaneIsa>,
     /// The batch tracker's row kernel: `true` (default) evaluates each row from its parameters
-    /// `p(t)` ([`CoefficientForm::lanes_row_params`], the unexpanded declaration) where the
+    /// `p(t)` ([`ParamLanes::row_params`], the unexpanded declaration) where the
     /// problem has it and solvergen estimates it cheaper ([`crate::ParamRowLayout::preferred`]),
     /// `false` always from the coefficients of the expansion
-    /// ([`CoefficientForm::lanes_row`]). The same paths either way, to rounding (GRPS7: 0.8x the
+    /// ([`crate::PathLanes::row`]). The same paths either way, to rounding (GRPS7: 0.8x the
     /// time with parameters); `false` is there to compare them.
     pub param_lanes: bool,
     /// Path-jump repair: paths that failed or whose end points coincide with another path's
@@ -296,7 +296,7 @@ where
     };
     let isa = options.lane_isa.unwrap_or_else(LaneIsa::detect);
     let lanes = if options.batch && batch_supported(&options.tracker) && isa.available() {
-        (options.param_lanes && P::PARAM_LANES.is_some_and(|layout| layout.preferred))
+        (options.param_lanes && P::PARAM_LANES.is_some_and(|kernels| kernels.param_layout().preferred))
             .then(|| LaneSystem::<P, N, NC>::from_parameter_path::<NP>(&h.parameter_path().param_poly()))
             .flatten()
             .or_else(|| LaneSystem::<P, N, NC>::new::<NP>(h.coefficient_poly()))
@@ -448,7 +448,7 @@ pub struct CoefficientParameterHomotopy<P, const NP: usize, const NC: usize> {
     c: Vec<SVector<C, NC>>,
     /// `dc/dt = sum_k dc[k] t^k`.
     dc: Vec<SVector<C, NC>>,
-    /// The same polynomial in the row-lane layout of [`CoefficientForm::coefficient_part_poly`]
+    /// The same polynomial in the row-lane layout of [`RowLanes::coefficient_part_poly`]
     /// (empty when the problem has no row kernels).
     dc_lanes: Vec<C64x4>,
 }
@@ -507,8 +507,8 @@ impl<P, const NP: usize, const NC: usize> CoefficientParameterHomotopy<P, NP, NC
         while dc.len() > 1 && dc.last().is_some_and(|v| v.camax() <= 1e-13 * scale) {
             dc.pop();
         }
-        let dc_lanes = match P::ROW_LAYOUT {
-            Some((rows, per_row)) if rows * per_row == NC && rows > 0 => {
+        let dc_lanes = match P::ROW_LANES.map(RowLanes::layout) {
+            Some(RowLayout { rows, per_row }) if rows * per_row == NC && rows > 0 => {
                 let chunks = rows.div_ceil(LANES);
                 let mut lanes = vec![C64x4::default(); dc.len() * chunks * per_row];
                 for (k, dck) in dc.iter().enumerate() {
@@ -546,10 +546,9 @@ impl<P, const NP: usize, const NC: usize> CoefficientParameterHomotopy<P, NP, NC
     where
         P: ParamDerivative<N, N, NP> + CoefficientForm<N, N, NP, NC>,
     {
-        if self.dc_lanes.is_empty() {
-            P::coefficient_part(x, &self.dc_at(t), dh);
-        } else {
-            P::coefficient_part_poly(x, t, &self.dc_lanes, dh);
+        match P::ROW_LANES {
+            Some(kernel) if !self.dc_lanes.is_empty() => kernel.coefficient_part_poly(x, t, &self.dc_lanes, dh),
+            _ => P::coefficient_part(x, &self.dc_at(t), dh),
         }
     }
 

@@ -5,14 +5,14 @@
 
 use super::data_structs::field_layouts;
 use super::render::{render_scalar, Outputs};
-use super::row_kernels::{LanedCoefficientForm, RowKernels};
+use super::row_kernels::{LaneImpls, LanedCoefficientForm, RowKernels};
 use super::{camel, n};
 use crate::dag::Dag;
 use crate::decl::Declaration;
 use crate::lower::Instance;
 use crate::poly::{Poly, Var};
 use crate::{Expanded, Lowered};
-use proc_macro2::{Ident, TokenStream};
+use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
 
 /// What one instance contributes to the module.
@@ -266,8 +266,8 @@ fn coefficient_form(expanded: &Expanded, type_name: &Ident, laned: Option<&Laned
         out
     };
 
-    let (fused, residual, linear, linear_poly) = match laned {
-        Some(l) => (l.fused.clone(), l.residual.clone(), l.linear.clone(), l.linear_poly.clone()),
+    let (fused, residual, linear, lanes) = match laned {
+        Some(l) => (l.fused.clone(), l.residual.clone(), l.linear.clone(), l.lanes.as_ref()),
         None => {
             let mut dag = Dag::default();
             let f = residual_of(&mut dag, &split.equations);
@@ -282,9 +282,10 @@ fn coefficient_form(expanded: &Expanded, type_name: &Ident, laned: Option<&Laned
             let lin = residual_of(&mut dag, &split.linear);
             // The linear part reads its coefficients from `dc` (renamed `c`).
             let linear = render_scalar(&dag, vars, &[(quote!(out), &lin)]);
-            (fused, residual, quote!(let c = dc; #linear), quote!())
+            (fused, residual, quote!(let c = dc; #linear), None)
         }
     };
+    let (lane_types, lane_impls) = lane_kernels(type_name, lanes, (&nx, &nf));
 
     quote! {
         #[allow(clippy::all, unused_variables)]
@@ -310,9 +311,53 @@ fn coefficient_form(expanded: &Expanded, type_name: &Ident, laned: Option<&Laned
             fn coefficient_part<S: ::simhc::Scalar>(x: &#sv<S, #nx>, dc: &#sv<S, #nc>, out: &mut #sv<S, #nf>) {
                 #linear
             }
-            #linear_poly
+            #lane_types
         }
+        #lane_impls
     }
+}
+
+/// `CoefficientForm`'s lane-kernel types and constants, and the impls of the capability traits
+/// `simhc::{RowLanes, PathLanes, ParamLanes}` on the instance type where it has them (else
+/// `simhc::NoLanes` and `None`).
+fn lane_kernels(type_name: &Ident, lanes: Option<&LaneImpls>, (nx, nf): (&Literal, &Literal)) -> (TokenStream, TokenStream) {
+    let Some(LaneImpls { row, path, param, param_doc }) = lanes else {
+        let none = quote!(::core::option::Option<::simhc::NoLanes> = ::core::option::Option::None);
+        let types = quote! {
+            type RowLanes = ::simhc::NoLanes;
+            const ROW_LANES: #none;
+            type PathLanes = ::simhc::NoLanes;
+            const PATH_LANES: #none;
+            type ParamLanes = ::simhc::NoLanes;
+            const PARAM_LANES: #none;
+        };
+        return (types, quote!());
+    };
+    let some = quote!(::core::option::Option<Self> = ::core::option::Option::Some(Self));
+    let types = quote! {
+        type RowLanes = Self;
+        const ROW_LANES: #some;
+        type PathLanes = Self;
+        const PATH_LANES: #some;
+        type ParamLanes = Self;
+        const PARAM_LANES: #some;
+    };
+    let impls = quote! {
+        #[allow(clippy::all, unused_variables)]
+        impl ::simhc::RowLanes<#nx, #nf> for #type_name {
+            #row
+        }
+        #[allow(clippy::all, unused_variables)]
+        impl ::simhc::PathLanes<#nx, #nf> for #type_name {
+            #path
+        }
+        #[doc = #param_doc]
+        #[allow(clippy::all, unused_variables)]
+        impl ::simhc::ParamLanes<#nx, #nf> for #type_name {
+            #param
+        }
+    };
+    (types, impls)
 }
 
 /// Derivative tables of one instance.

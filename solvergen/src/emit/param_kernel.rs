@@ -90,23 +90,28 @@ pub(super) struct ParamLanes {
 }
 
 impl ParamLanes {
-    /// The trait items `PARAM_LANES`, `lanes_params_shared`, `lanes_row_params`; `preferred`
-    /// when the estimate is below the coefficient kernel's (`coefficient_ops`).
-    pub fn items(&self, preferred: bool, coefficient_ops: usize) -> TokenStream {
+    /// The body of `simhc::ParamLanes` (`param_layout`, `shared`, `row_params`) and the doc of
+    /// its impl; `preferred` when the estimate is below the coefficient kernel's
+    /// (`coefficient_ops`).
+    pub fn items(&self, preferred: bool, coefficient_ops: usize) -> (TokenStream, String) {
         let (nx, k_t, epr_t, ej, row_len_t, ns_t) = (n(self.nx), n(self.k), n(self.epr), n(self.ej), n(self.row_len), n(self.shared));
         let doc = format!(" Estimated operations per row: {} from the parameters, {} from the coefficients.", self.ops, coefficient_ops);
-        quote! {
-            #[doc = #doc]
-            const PARAM_LANES: ::core::option::Option<::simhc::ParamRowLayout> =
-                ::core::option::Option::Some(::simhc::ParamRowLayout { row_len: #row_len_t, inputs: #k_t, shared: #ns_t, preferred: #preferred });
-            #[inline(always)]
-            fn lanes_params_shared<S: ::simhc::lanes::Lanes>(x: &[S; #nx], out: &mut [S]) {
-                if let Ok(out) = <&mut [S; #ns_t]>::try_from(out) {
-                    __SimhcRowKernels::__row_param_shared(x, out);
-                }
+        let body = quote! {
+            #[inline]
+            fn param_layout(self) -> ::simhc::ParamRowLayout {
+                ::simhc::ParamRowLayout { row_len: #row_len_t, inputs: #k_t, shared: #ns_t, preferred: #preferred }
             }
             #[inline(always)]
-            fn lanes_row_params<S: ::simhc::lanes::Lanes>(
+            fn shared<S: ::simhc::lanes::Lanes>(self, x: &[S; #nx], out: &mut [S]) {
+                let Ok(out) = <&mut [S; #ns_t]>::try_from(out) else {
+                    debug_assert!(false, "ParamLanes::shared: slice length differs from the layout");
+                    return;
+                };
+                __SimhcRowKernels::__row_param_shared(x, out);
+            }
+            #[inline(always)]
+            fn row_params<S: ::simhc::lanes::Lanes>(
+                self,
                 x: &[S; #nx],
                 shared: &[S],
                 p: &[S],
@@ -123,10 +128,12 @@ impl ParamLanes {
                     <&mut [S; #ej]>::try_from(j),
                     <&mut [S; #epr_t]>::try_from(d),
                 ) else {
+                    debug_assert!(false, "ParamLanes::row_params: slice lengths differ from the layout");
                     return;
                 };
                 __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
             }
-        }
+        };
+        (body, doc)
     }
 }

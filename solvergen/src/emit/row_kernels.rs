@@ -187,9 +187,21 @@ pub(super) struct LanedCoefficientForm {
     pub residual: TokenStream,
     /// Body of `coefficient_part`.
     pub linear: TokenStream,
-    /// `coefficient_part_poly` and the path-lane items, or nothing when the global equations
-    /// have coefficients.
-    pub linear_poly: TokenStream,
+    /// The lane-kernel impls, or `None` when the global equations have coefficients.
+    pub lanes: Option<LaneImpls>,
+}
+
+/// The bodies of the capability traits `simhc::{RowLanes, PathLanes, ParamLanes}` of one
+/// instance (the impl blocks are written by the instance).
+pub(super) struct LaneImpls {
+    /// `RowLanes`: `layout` and `coefficient_part_poly`.
+    pub row: TokenStream,
+    /// `PathLanes`: `equations_per_row`, `row` and `globals`.
+    pub path: TokenStream,
+    /// `ParamLanes`: `param_layout`, `shared` and `row_params`.
+    pub param: TokenStream,
+    /// Doc of the `ParamLanes` impl: the estimated operation counts.
+    pub param_doc: String,
 }
 
 impl<'a> RowKernels<'a> {
@@ -300,11 +312,11 @@ impl<'a> RowKernels<'a> {
                 k_linear,
             ),
         ];
-        // `coefficient_part_poly`: only when the global equations' linear part vanishes (no
+        // The lane kernels: only when the global equations' linear part vanishes (no
         // coefficients outside the row blocks).
         let first_global = shape.rows * shape.epr;
         let mut lane_kernel = quote!();
-        let poly_fn = if split.linear[first_global..].iter().all(|p| p.is_zero()) {
+        let lanes = if split.linear[first_global..].iter().all(|p| p.is_zero()) {
             let (rows, nc1_t, epr, nx_t, nf_t) = (n(shape.rows), n(nc1), n(shape.epr), n(shape.nx), n(shape.nf));
             let lanes = quote!(<S as ::simhc::Scalar>::Lanes);
             let zero = quote!(<#lanes as ::simhc::lanes::Lanes>::from_real(0.0));
@@ -343,17 +355,19 @@ impl<'a> RowKernels<'a> {
                 (quote!(out), quote!(&'a mut ::simhc::__private::nalgebra::SVector<S, #nf_t>)),
             ];
             let wrapped = dispatched(&args, body);
-            let (kernel, lanes_items) = self.path_lanes(&split.equations, &split.vars, nc1);
-            let param = &self.param_lanes;
-            let param_kernel = &param.kernel;
-            let param_items = param.items(param.ops < coefficient_ops, coefficient_ops);
+            let (kernel, path) = self.path_lanes(&split.equations, &split.vars, nc1);
+            let param_lanes = &self.param_lanes;
+            let param_kernel = &param_lanes.kernel;
+            let (param, param_doc) = param_lanes.items(param_lanes.ops < coefficient_ops, coefficient_ops);
             lane_kernel = quote!(#kernel #param_kernel);
-            let lanes_items = quote!(#lanes_items #param_items);
-            quote! {
-                #lanes_items
-                const ROW_LAYOUT: ::core::option::Option<(usize, usize)> = ::core::option::Option::Some((#rows, #nc1_t));
+            let row = quote! {
+                #[inline]
+                fn layout(self) -> ::simhc::RowLayout {
+                    ::simhc::RowLayout { rows: #rows, per_row: #nc1_t }
+                }
                 #[inline]
                 fn coefficient_part_poly<S: ::simhc::Scalar>(
+                    self,
                     x: &::simhc::__private::nalgebra::SVector<S, #nx_t>,
                     t: f64,
                     poly: &[<S as ::simhc::Scalar>::Lanes],
@@ -361,20 +375,21 @@ impl<'a> RowKernels<'a> {
                 ) {
                     #wrapped
                 }
-            }
+            };
+            Some(LaneImpls { row, path, param, param_doc })
         } else {
-            quote!()
+            None
         };
-        Some(LanedCoefficientForm { items: quote!(#(#items)* #lane_kernel), fused, residual, linear, linear_poly: poly_fn })
+        Some(LanedCoefficientForm { items: quote!(#(#items)* #lane_kernel), fused, residual, linear, lanes })
     }
 }
 
 impl RowKernels<'_> {
-    /// `CoefficientForm`'s path-lane items (`PATH_LANES`, `lanes_row`, `lanes_globals`): the
+    /// The body of `simhc::PathLanes` (`equations_per_row`, `row`, `globals`): the
     /// coefficient-form row kernels and the (coefficient-free) global equations, generic over
     /// `simhc::lanes::Lanes`, for callers that put one *path* in each lane. Returns the kernel
     /// item of the global equations (shared by the instances, like the row kernels; empty
-    /// without global equations) and the trait items.
+    /// without global equations) and the trait body.
     fn path_lanes(&self, eqs: &[Poly], vars: &VarTable, nc1: usize) -> (TokenStream, TokenStream) {
         let shape = self.shape;
         let first = shape.rows * shape.epr;
@@ -403,6 +418,7 @@ impl RowKernels<'_> {
             };
             let call = quote! {
                 let (Ok(f), Ok(j)) = (<&mut [S; #ng_t]>::try_from(f), <&mut [S; #ngj]>::try_from(j)) else {
+                    debug_assert!(false, "PathLanes::globals: slice lengths differ from the layout");
                     return;
                 };
                 __SimhcRowKernels::__global_lanes(x, f, j);
@@ -410,9 +426,13 @@ impl RowKernels<'_> {
             (kernel, call)
         };
         let items = quote! {
-            const PATH_LANES: ::core::option::Option<usize> = ::core::option::Option::Some(#epr);
+            #[inline]
+            fn equations_per_row(self) -> usize {
+                #epr
+            }
             #[inline(always)]
-            fn lanes_row<S: ::simhc::lanes::Lanes>(
+            fn row<S: ::simhc::lanes::Lanes>(
+                self,
                 x: &[S; #nx],
                 c: &[S],
                 dc: &[S],
@@ -427,6 +447,7 @@ impl RowKernels<'_> {
                     <&mut [S; #ej]>::try_from(j),
                     <&mut [S; #epr]>::try_from(d),
                 ) else {
+                    debug_assert!(false, "PathLanes::row: slice lengths differ from the layout");
                     return;
                 };
                 __SimhcRowKernels::__row_coeff_residual_jacobian(x, c, f, j);
@@ -434,7 +455,7 @@ impl RowKernels<'_> {
             }
             #[inline(always)]
             #[allow(unused_variables)]
-            fn lanes_globals<S: ::simhc::lanes::Lanes>(x: &[S; #nx], f: &mut [S], j: &mut [S]) {
+            fn globals<S: ::simhc::lanes::Lanes>(self, x: &[S; #nx], f: &mut [S], j: &mut [S]) {
                 #globals
             }
         };

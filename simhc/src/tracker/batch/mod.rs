@@ -28,7 +28,7 @@ use super::path::{Eval, Next, TrackerState};
 use super::{TrackError, TrackResult, Trouble};
 use crate::homotopy::Homotopy;
 use crate::lanes::{Kernel, Lanes};
-use crate::CoefficientForm;
+use crate::{CoefficientForm, ParamLanes, PathLanes, RowLanes, RowLayout};
 use nalgebra::SVector;
 use std::marker::PhantomData;
 use thiserror::Error;
@@ -40,12 +40,12 @@ use crate::scalar::C;
 
 /// `H(x, t)` for path lanes, in one of two forms:
 /// - [`LaneSystem::new`]: `F_c(x; c(t))` with `c(t) = sum_k t^k c_k`, problem `P`'s generated
-///   [`CoefficientForm::lanes_row`] on the coefficients of the expansion;
+///   [`PathLanes::row`] on the coefficients of the expansion;
 /// - [`LaneSystem::from_parameter_path`]: `F(x; p(t))` with `p(t) = sum_k t^k p_k`,
-///   [`CoefficientForm::lanes_row_params`] on each row's parameters (the unexpanded
+///   [`ParamLanes::row_params`] on each row's parameters (the unexpanded
 ///   declaration: fewer inputs per row and shared structure; GRPS7 measured 0.8x the time).
 ///
-/// Either way [`CoefficientForm::lanes_globals`] gives the global equations. Each row's inputs
+/// Either way [`PathLanes::globals`] gives the global equations. Each row's inputs
 /// are stored as polynomials in `t`, input-major: entry `(r * per_row + i) * terms + k` is the
 /// degree-`k` coefficient of row `r`'s input `i`.
 #[derive(Debug, Clone)]
@@ -55,24 +55,23 @@ pub struct LaneSystem<P, const N: usize, const NC: usize> {
     rows: usize,
     per_row: usize,
     epr: usize,
-    /// Whether the row inputs are parameters (`lanes_row_params`), not coefficients.
+    /// Whether the row inputs are parameters ([`ParamLanes::row_params`]), not coefficients.
     params: bool,
-    /// Entries of the parameter kernel's shared part (`lanes_params_shared`).
+    /// Entries of the parameter kernel's shared part ([`ParamLanes::shared`]).
     shared: usize,
     _problem: PhantomData<fn() -> P>,
 }
 
 impl<P, const N: usize, const NC: usize> LaneSystem<P, N, NC> {
     /// The system with coefficients `c(t) = sum_k t^k poly[k]`, or `None` when `P` has no
-    /// path-lane code (`PATH_LANES` / `ROW_LAYOUT` not both set, or inconsistent sizes) or
-    /// `poly` is empty.
+    /// path-lane kernels ([`CoefficientForm::PATH_LANES`] is `None`), its sizes are
+    /// inconsistent, or `poly` is empty.
     pub fn new<const NP: usize>(poly: &[SVector<C, NC>]) -> Option<Self>
     where
         P: CoefficientForm<N, N, NP, NC>,
     {
-        let (Some(epr), Some((rows, per_row))) = (P::PATH_LANES, P::ROW_LAYOUT) else {
-            return None;
-        };
+        let kernels = P::PATH_LANES?;
+        let (RowLayout { rows, per_row }, epr) = (kernels.layout(), kernels.equations_per_row());
         if poly.is_empty() || rows == 0 || rows * per_row != NC || rows * epr > N {
             return None;
         }
@@ -88,15 +87,14 @@ impl<P, const N: usize, const NC: usize> LaneSystem<P, N, NC> {
 
     /// The system along the parameter path `p(t) = sum_k t^k poly[k]` (e.g. `[p0, p1 - p0]`
     /// for the segment from `p0` to `p1`: [`crate::homotopy::ParameterHomotopy::param_poly`]),
-    /// or `None` when `P` has no parameter row kernel (`PARAM_LANES`, `PATH_LANES` and
-    /// `ROW_LAYOUT` not all set, or sizes inconsistent with `NP`) or `poly` is empty.
+    /// or `None` when `P` has no parameter row kernel ([`CoefficientForm::PARAM_LANES`] is
+    /// `None`), its sizes are inconsistent with `NP`, or `poly` is empty.
     pub fn from_parameter_path<const NP: usize>(poly: &[SVector<C, NP>]) -> Option<Self>
     where
         P: CoefficientForm<N, N, NP, NC>,
     {
-        let (Some(epr), Some((rows, _)), Some(layout)) = (P::PATH_LANES, P::ROW_LAYOUT, P::PARAM_LANES) else {
-            return None;
-        };
+        let kernels = P::PARAM_LANES?;
+        let (RowLayout { rows, .. }, epr, layout) = (kernels.layout(), kernels.equations_per_row(), kernels.param_layout());
         let (row_len, k) = (layout.row_len, layout.inputs);
         if poly.is_empty() || rows == 0 || k < row_len || rows * row_len + (k - row_len) != NP || rows * epr > N {
             return None;
@@ -175,8 +173,14 @@ where
         let mut d = [Wide::<W, FMA>::default(); N];
         let (cl, rest) = op.scratch.split_at_mut(s.per_row);
         let (dcl, shared) = rest.split_at_mut(s.per_row);
-        if s.params {
-            P::lanes_params_shared(op.x, shared);
+        // A `LaneSystem` of `P` exists only where `P` has path lanes (`LaneSystem::new`), and
+        // with `params` only where it has parameter row kernels.
+        let Some(kernels) = P::PATH_LANES else {
+            return;
+        };
+        let params = if s.params { P::PARAM_LANES } else { None };
+        if let Some(params) = params {
+            params.shared(op.x, shared);
         }
         for r in 0..s.rows {
             let row = &s.c[r * s.per_row * s.terms..(r + 1) * s.per_row * s.terms];
@@ -194,14 +198,13 @@ where
             }
             let (e0, e1) = (r * s.epr, (r + 1) * s.epr);
             let (fr, jr, dr) = (&mut f[e0..e1], &mut j.as_flattened_mut()[e0 * N..e1 * N], &mut d[e0..e1]);
-            if s.params {
-                P::lanes_row_params(op.x, &*shared, &*cl, &*dcl, fr, jr, dr);
-            } else {
-                P::lanes_row(op.x, &*cl, &*dcl, fr, jr, dr);
+            match params {
+                Some(params) => params.row_params(op.x, &*shared, &*cl, &*dcl, fr, jr, dr),
+                None => kernels.row(op.x, &*cl, &*dcl, fr, jr, dr),
             }
         }
         let g = s.rows * s.epr;
-        P::lanes_globals(op.x, &mut f[g..], &mut j.as_flattened_mut()[g * N..]);
+        kernels.globals(op.x, &mut f[g..], &mut j.as_flattened_mut()[g * N..]);
         *op.status = solve_lanes(&mut j, &mut f, &mut d);
         *op.u = f;
         for (vi, di) in op.v.iter_mut().zip(d) {

@@ -6,7 +6,7 @@
 //! coefficients of the expansion (`BATCHONLY=coefficients`).
 //!
 //! ```sh
-//! cargo run --release -p simhc-problems --example allroots_diag -- 3   # seeds 0..3
+//! cargo run --release -p simhc-problems --example allroots_diag --features diagnostics -- 3   # seeds 0..3
 //! ```
 //!
 //! It also prints where along `t` the one-path tracker's steps go (accepted and rejected

@@ -10,7 +10,7 @@ use crate::CoefficientForm;
 use nalgebra::SVector;
 use std::borrow::Borrow;
 use std::marker::PhantomData;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Settings of the executor, apart from the problem's pieces.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -167,24 +167,18 @@ where
     ) -> Result<Vec<Solved<V::Check, NX>>, T::Error> {
         let mut times = StageTimes::default();
         let p = self.target.params(data)?;
-        let default_schedule: Vec<Attempt> =
-            (0..self.starts.len()).map(|provider| Attempt { provider, method: Method::SimulatorHc }).collect();
-        let schedule = self.schedule.unwrap_or(&default_schedule);
         let mut found: Vec<Solved<V::Check, NX>> = Vec::new();
-        let mut current: Option<(usize, Option<SVector<f64, NX>>)> = None;
-        for (attempts, &Attempt { provider, method }) in schedule.iter().enumerate() {
+        let mut attempts = 0;
+        for (Attempt { provider, method }, x0) in Plan::new(self.starts, self.schedule, self.other_simulators.len(), data) {
             if found.len() >= max {
                 break;
             }
-            let Some(start) = self.starts.get(provider) else { continue };
-            if current.as_ref().is_none_or(|(k, _)| *k != provider) {
-                current = Some((provider, start.start(data).ok()));
-            }
-            let Some((_, Some(x0))) = current else { continue };
+            let Ok(x0) = x0 else { continue };
+            attempts += 1;
             let Ok((x, stats)) = self.attempt(data, &x0, &p, method, &mut times) else { continue };
             let check = self.validator.check(data, &x);
             if self.validator.verdict(&check) != Verdict::Reject && !found.iter().any(|s| same(&s.x, &x)) {
-                found.push(Solved { x, start: x0, origin: Origin::Path { provider, method }, attempts: attempts + 1, check, stats, times });
+                found.push(Solved { x, start: x0, origin: Origin::Path { provider, method }, attempts, check, stats, times });
             }
         }
         Ok(found)
@@ -204,7 +198,7 @@ where
             Method::SimulatorHc => simulator_hc::<P, D, S, NX, NF, NP, NC>(data, self.simulator, x0, p, o, times),
             Method::OtherSimulatorHc(k) => match self.other_simulators.get(k) {
                 Some(&other) => simulator_hc::<P, D, dyn StartSimulator<D, NX, NF, NP>, NX, NF, NP, NC>(data, other, x0, p, o, times),
-                None => Err(AttemptError::Start(StartError { provider: "schedule", reason: format!("no other simulator {k}") })),
+                None => Err(no_other_simulator(k)),
             },
             Method::GaussNewton => {
                 let t = Instant::now();
@@ -235,40 +229,21 @@ where
         let mut best: Option<Solved<V::Check, NX>> = None;
         let mut plausible: Option<Solved<V::Check, NX>> = None;
         let mut last = None;
-        let default_schedule = (0..starts.len()).map(|provider| Attempt { provider, method: Method::SimulatorHc });
-        let attempts_in_order: Box<dyn Iterator<Item = Attempt>> = match schedule {
-            Some(s) => Box::new(s.iter().copied()),
-            None => Box::new(default_schedule),
-        };
-        // The start of the provider last asked (providers repeat in a row in a schedule).
-        let mut current: Option<(usize, Result<SVector<f64, NX>, StartError>)> = None;
-        for Attempt { provider, method } in attempts_in_order {
+        let mut plan = Plan::new(starts, schedule, self.other_simulators.len(), data);
+        while let Some((Attempt { provider, method }, x0)) = plan.next() {
+            times.start = plan.start_time;
             if attempts >= deadline {
                 break;
             }
-            let Some(start) = starts.get(provider) else {
-                last = Some(AttemptError::Start(StartError { provider: "schedule", reason: format!("no start provider {provider}") }));
-                continue;
-            };
-            if current.as_ref().is_none_or(|(k, _)| *k != provider) {
-                let ts = Instant::now();
-                current = Some((provider, start.start(data)));
-                times.start += ts.elapsed();
-            }
-            // A provider without a start for this data makes no attempt.
-            let x0 = match current.as_ref().map(|(_, x)| x.clone()).expect("set above") {
+            // An attempt that cannot run (no start for this data, no such provider or
+            // simulator) is no attempt.
+            let x0 = match x0 {
                 Ok(x0) => x0,
                 Err(e) => {
-                    last = Some(e.into());
+                    last = Some(e);
                     continue;
                 }
             };
-            if let Method::OtherSimulatorHc(k) = method {
-                if k >= self.other_simulators.len() {
-                    last = Some(AttemptError::Start(StartError { provider: "schedule", reason: format!("no other simulator {k}") }));
-                    continue;
-                }
-            }
             attempts += 1;
             let (x, stats) = match self.attempt(data, &x0, &p, method, &mut times) {
                 Ok(r) => r,
@@ -332,5 +307,62 @@ where
             }
             None => Err(PipelineError::NoEndPoint { attempts, last }),
         }
+    }
+}
+
+fn no_other_simulator(k: usize) -> AttemptError {
+    AttemptError::Start(StartError { provider: "schedule", reason: format!("no other simulator {k}") })
+}
+
+/// The attempts of a schedule (by default one Simulator HC path per provider), each with its
+/// start or the reason it cannot run. A provider's start is computed once for attempts of it in
+/// a row; `start_time` adds up the time spent in the providers.
+struct Plan<'s, D: ?Sized, const NX: usize> {
+    starts: &'s [&'s dyn StartProvider<D, NX>],
+    schedule: Option<&'s [Attempt]>,
+    other_simulators: usize,
+    data: &'s D,
+    next: usize,
+    current: Option<(usize, Result<SVector<f64, NX>, StartError>)>,
+    start_time: Duration,
+}
+
+impl<'s, D: ?Sized, const NX: usize> Plan<'s, D, NX> {
+    fn new(starts: &'s [&'s dyn StartProvider<D, NX>], schedule: Option<&'s [Attempt]>, other_simulators: usize, data: &'s D) -> Self {
+        Self { starts, schedule, other_simulators, data, next: 0, current: None, start_time: Duration::ZERO }
+    }
+}
+
+impl<D: ?Sized, const NX: usize> Iterator for Plan<'_, D, NX> {
+    type Item = (Attempt, Result<SVector<f64, NX>, AttemptError>);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let attempt = match self.schedule {
+            Some(schedule) => *schedule.get(self.next)?,
+            None if self.next < self.starts.len() => Attempt { provider: self.next, method: Method::SimulatorHc },
+            None => return None,
+        };
+        self.next += 1;
+        let Attempt { provider, method } = attempt;
+        let Some(start) = self.starts.get(provider) else {
+            let reason = format!("no start provider {provider}");
+            return Some((attempt, Err(AttemptError::Start(StartError { provider: "schedule", reason }))));
+        };
+        if let Method::OtherSimulatorHc(k) = method {
+            if k >= self.other_simulators {
+                return Some((attempt, Err(no_other_simulator(k))));
+            }
+        }
+        let x0 = match &self.current {
+            Some((k, x0)) if *k == provider => x0.clone(),
+            _ => {
+                let t = Instant::now();
+                let x0 = start.start(self.data);
+                self.start_time += t.elapsed();
+                self.current = Some((provider, x0.clone()));
+                x0
+            }
+        };
+        Some((attempt, x0.map_err(AttemptError::from)))
     }
 }

@@ -1,21 +1,25 @@
-//! The generic learned start: trains a [`simhc::pipeline::learned::LearnedStart`] for any
-//! declared problem from its scene sampler, reading parameters and unknowns through the
-//! problem's [`Layout`] (emitted by `#[simhc_problem]`).
+//! The trainer of every learned start: draws scenes from a problem's sampler, turns each into
+//! network input rows and a target through the problem's [`FeatureHook`], and runs the shared
+//! burn loop ([`train_with_loss`]) on the hook's loss.
 //!
-//! - Input rows: [`layout_rows`] (a row's parameters and the globals), standardized per channel
-//!   over the training set.
-//! - Outputs: the unknowns in layout order. Quaternion unknowns get the sign-invariant loss
-//!   `1 - (q^ . q)²` on the normalized prediction (`q` and `-q` are one rotation); the other
-//!   unknowns are standardized over the training set and get the squared error.
-//! - The standardizations are folded into the first and last dense layers of the exported
-//!   [`FoldedNetwork`], which therefore maps raw parameters to raw unknowns.
+//! - A declared problem's default hook is [`LayoutFeatures`]: its parameters read through the
+//!   [`Layout`] emitted by `#[simhc_problem]`, one input row per row, `[row parameters, global
+//!   parameters]`; outputs the unknowns in layout order. Quaternion unknowns get the
+//!   sign-invariant loss `1 - (q^ . q)²` on the normalized prediction (`q` and `-q` are one
+//!   rotation); the inputs and the other unknowns are standardized over the training set, and
+//!   the standardizations are folded into the first and last dense layers of the exported
+//!   [`FoldedNetwork`] ([`HookTrained::folded`]), which therefore maps raw parameters to raw
+//!   unknowns. [`train_learned_start`] trains it into a [`LearnedStart`].
+//! - UPnP and GRPS have their own hooks ([`crate::upnp::UpnpFeatures`],
+//!   [`crate::grps::GrpsFeatures`]): rows in canonical frames, built by the same code the
+//!   runtime calls, and their own output encodings and losses.
 //!
-//! Seeds: the samples come from `ChaCha8Rng::seed_from_u64(config.train.seed)` in order, and the
-//! training loop ([`train_with_loss`]) is seeded the same way, so a run is reproducible.
+//! Seeds: scene `i` is drawn by `scene(i, rng)` from `ChaCha8Rng::seed_from_u64(train.seed)`, in
+//! order, and the training loop is seeded the same way, so a run is reproducible.
 
 use crate::data::{DataError, InMemoryDataset, Sample};
 use crate::inference::fold;
-use crate::model::RegressorConfig;
+use crate::model::{PoseRegressor, RegressorConfig};
 use crate::training::{train_with_loss, TrainConfig, TrainRun};
 use burn::prelude::*;
 use rand::SeedableRng;
@@ -24,6 +28,39 @@ use simhc::layout::{FieldKind, Layout};
 use simhc::pipeline::learned::{layout_row_count, layout_row_width, layout_rows, LearnedStart};
 use simhc::regressor::{DenseLayer, FoldedNetwork, RegressorError};
 use thiserror::Error;
+
+/// A problem's feature hook: what the trainer learns from one of its scenes, and how a
+/// prediction is scored.
+pub trait FeatureHook {
+    /// What the problem's sampler draws.
+    type Scene;
+    /// Network input rows per scene, and numbers per row.
+    fn input_shape(&self) -> (usize, usize);
+    /// Numbers per target.
+    fn target_width(&self) -> usize;
+    /// The input rows (`rows`, flat, row after row; zeroed) and the target (zeroed) of scene
+    /// `index`: `Ok(true)` when written, `Ok(false)` for a scene without features (the trainer
+    /// draws another), an error for a sampler that cannot be trained on.
+    fn features(&self, index: usize, scene: &Self::Scene, rows: &mut [f32], target: &mut [f64]) -> Result<bool, LearnedStartError>;
+    /// Whether the inputs and targets are standardized over the training set before training
+    /// (and the standardizations folded into the exported network).
+    fn standardize(&self) -> Standardize {
+        Standardize::No
+    }
+    /// The loss of a batch: predictions `[B, outputs]` against targets `[B, target_width]`
+    /// (standardized where [`FeatureHook::standardize`] says).
+    fn loss(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1>;
+}
+
+/// What [`FeatureHook::standardize`] standardizes.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Standardize {
+    /// Nothing: the hook's rows and targets are already in the network's convention.
+    No,
+    /// Every input channel, and every target number except these (for example a quaternion's,
+    /// whose loss is sign-invariant).
+    AllBut(Vec<usize>),
+}
 
 /// Settings of [`train_learned_start`].
 #[derive(Debug, Clone, PartialEq)]
@@ -70,12 +107,207 @@ pub enum LearnedStartError {
         /// Sample index.
         index: usize,
     },
+    /// The sampler drew `draws` scenes in a row without features.
+    #[error("sample {index}: {draws} scenes in a row without features (a degenerate sampler?)")]
+    NoFeatures {
+        /// Sample index.
+        index: usize,
+        /// Scenes drawn for it.
+        draws: usize,
+    },
     /// The data set could not be built.
     #[error(transparent)]
     Data(#[from] DataError),
     /// The trained network could not be exported.
     #[error(transparent)]
     Export(#[from] RegressorError),
+}
+
+/// Scenes drawn in a row without features before the trainer gives up.
+pub const MAX_DRAWS: usize = 1000;
+
+/// Sample `index`'s features: scenes from `scene(index, rng)` until one has features.
+fn draw<H: FeatureHook>(
+    hook: &H,
+    index: usize,
+    rng: &mut ChaCha8Rng,
+    scene: &mut impl FnMut(usize, &mut ChaCha8Rng) -> H::Scene,
+    rows: &mut [f32],
+    target: &mut [f64],
+) -> Result<(), LearnedStartError> {
+    for _ in 0..MAX_DRAWS {
+        rows.fill(0.0);
+        target.fill(0.0);
+        if hook.features(index, &scene(index, rng), rows, target)? {
+            return Ok(());
+        }
+    }
+    Err(LearnedStartError::NoFeatures { index, draws: MAX_DRAWS })
+}
+
+/// `count` samples of `hook`, unstandardized: scene `i` drawn by `scene(i, rng)` from
+/// `ChaCha8Rng::seed_from_u64(seed)` in order (a scene without features is replaced by the next
+/// draw).
+pub fn scene_dataset<H: FeatureHook>(
+    hook: &H,
+    count: usize,
+    seed: u64,
+    mut scene: impl FnMut(usize, &mut ChaCha8Rng) -> H::Scene,
+) -> Result<InMemoryDataset, LearnedStartError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let ((points, width), nt) = (hook.input_shape(), hook.target_width());
+    let (mut rows, mut target) = (vec![0.0f32; points * width], vec![0.0f64; nt]);
+    let mut failed = None;
+    let data = InMemoryDataset::from_fn(count, points, width, nt, |i| {
+        if failed.is_none() {
+            if let Err(e) = draw(hook, i, &mut rng, &mut scene, &mut rows, &mut target) {
+                failed = Some(e);
+            }
+        }
+        Sample { rows: rows.clone(), target: target.iter().map(|v| *v as f32).collect() }
+    });
+    match failed {
+        Some(e) => Err(e),
+        None => Ok(data?),
+    }
+}
+
+/// A network trained through a [`FeatureHook`].
+#[derive(Debug)]
+pub struct HookTrained {
+    /// The model, in inference mode (on standardized inputs and targets where the hook
+    /// standardizes).
+    pub model: PoseRegressor,
+    /// What the training loop did.
+    pub run: TrainRun,
+    /// Input and target standardizations, where the hook standardizes.
+    standardization: Option<(Standardization, Standardization)>,
+}
+
+impl HookTrained {
+    /// The runtime network: the model with its standardizations folded in, so that it maps the
+    /// hook's raw rows to raw targets.
+    pub fn folded(&self) -> Result<FoldedNetwork, RegressorError> {
+        let net = fold(&self.model)?;
+        match &self.standardization {
+            Some((input, output)) => fold_standardizations(&net, input, output),
+            None => Ok(net),
+        }
+    }
+}
+
+/// Trains network `model` on `samples` scenes of `hook` (module docs) with `train`.
+pub fn train_with_hook<H: FeatureHook>(
+    hook: &H,
+    model: &RegressorConfig,
+    train: &TrainConfig,
+    samples: usize,
+    mut scene: impl FnMut(usize, &mut ChaCha8Rng) -> H::Scene,
+) -> Result<HookTrained, LearnedStartError> {
+    let (data, standardization) = match hook.standardize() {
+        Standardize::No => (scene_dataset(hook, samples, train.seed, scene)?, None),
+        Standardize::AllBut(raw) => {
+            let mut rng = ChaCha8Rng::seed_from_u64(train.seed);
+            let ((rows_n, width), nt) = (hook.input_shape(), hook.target_width());
+            let mut inputs: Vec<Vec<f32>> = Vec::with_capacity(samples);
+            let mut targets: Vec<Vec<f64>> = Vec::with_capacity(samples);
+            for index in 0..samples {
+                let (mut rows, mut target) = (vec![0.0f32; rows_n * width], vec![0.0f64; nt]);
+                draw(hook, index, &mut rng, &mut scene, &mut rows, &mut target)?;
+                inputs.push(rows);
+                targets.push(target);
+            }
+            let in_std =
+                Standardization::of(inputs.iter().flat_map(|r| r.chunks_exact(width)).map(|c| c.iter().map(|v| f64::from(*v))), width);
+            let mut out_std = Standardization::of(targets.iter().map(|x| x.iter().copied()), nt);
+            for &k in raw.iter().filter(|&&k| k < nt) {
+                out_std.mean[k] = 0.0;
+                out_std.scale[k] = 1.0;
+            }
+            let mut next = 0;
+            let data = InMemoryDataset::from_fn(samples, rows_n, width, nt, |_| {
+                let i = next;
+                next += 1;
+                let rows = inputs[i]
+                    .chunks_exact(width)
+                    .flat_map(|c| c.iter().enumerate().map(|(k, v)| in_std.apply(k, f64::from(*v)) as f32))
+                    .collect();
+                let target = targets[i].iter().enumerate().map(|(k, v)| out_std.apply(k, *v) as f32).collect();
+                Sample { rows, target }
+            })?;
+            (data, Some((in_std, out_std)))
+        }
+    };
+    let (model, run) = train_with_loss(model, &data, train, |p, t| hook.loss(p, t));
+    Ok(HookTrained { model, run, standardization })
+}
+
+/// A declared problem's default hook (module docs): a scene is `(p, x)`, the parameters and
+/// the true unknowns.
+#[derive(Debug, Clone, Copy)]
+pub struct LayoutFeatures<'a> {
+    layout: &'a Layout,
+}
+
+impl<'a> LayoutFeatures<'a> {
+    /// The hook of a problem of this layout.
+    pub fn new(layout: &'a Layout) -> Self {
+        Self { layout }
+    }
+
+    /// The network of `config` for this hook.
+    pub fn model(&self, config: &LearnedStartConfig) -> RegressorConfig {
+        RegressorConfig::new(layout_row_width(self.layout), config.point_widths.clone(), config.head_widths.clone())
+            .with_outputs(self.layout.unknown_len())
+            .with_normalize_output(false)
+    }
+}
+
+impl FeatureHook for LayoutFeatures<'_> {
+    type Scene = (Vec<f64>, Vec<f64>);
+
+    fn input_shape(&self) -> (usize, usize) {
+        (layout_row_count(self.layout), layout_row_width(self.layout))
+    }
+
+    fn target_width(&self) -> usize {
+        self.layout.unknown_len()
+    }
+
+    fn features(&self, index: usize, (p, x): &Self::Scene, rows: &mut [f32], target: &mut [f64]) -> Result<bool, LearnedStartError> {
+        let layout = self.layout;
+        let check =
+            |what, got, expected| if got == expected { Ok(()) } else { Err(LearnedStartError::Length { index, what, got, expected }) };
+        check("parameters", p.len(), layout.param_len())?;
+        check("unknowns", x.len(), layout.unknown_len())?;
+        target.copy_from_slice(x);
+        if !layout_rows(layout, p, rows) || !simhc::pipeline::learned::normalize_quaternions(layout, target) {
+            return Err(LearnedStartError::NonFinite { index });
+        }
+        Ok(true)
+    }
+
+    fn standardize(&self) -> Standardize {
+        let quats = self.layout.unknowns.iter().filter(|f| f.kind == FieldKind::Quat);
+        Standardize::AllBut(quats.flat_map(|f| f.offset..f.offset + 4).collect())
+    }
+
+    fn loss(&self, pred: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
+        let unknowns = self.layout.unknowns;
+        let mut terms: Vec<Tensor<1>> = Vec::new();
+        for f in unknowns.iter().filter(|f| f.kind == FieldKind::Quat) {
+            let a = pred.clone().narrow(1, f.offset, 4);
+            let a = a.clone() / a.square().sum_dim(1).sqrt().clamp_min(1e-6);
+            let dot = (a * target.clone().narrow(1, f.offset, 4)).sum_dim(1);
+            terms.push((dot.square().neg() + 1.0).mean());
+        }
+        for f in unknowns.iter().filter(|f| f.kind != FieldKind::Quat) {
+            let n = f.kind.len();
+            let d = pred.clone().narrow(1, f.offset, n) - target.clone().narrow(1, f.offset, n);
+            terms.push(d.square().sum_dim(1).mean());
+        }
+        terms.into_iter().reduce(|a, b| a + b).expect("a problem has unknowns")
+    }
 }
 
 /// A trained learned start.
@@ -88,69 +320,14 @@ pub struct TrainedStart {
 }
 
 /// Trains a learned start for a problem of `layout` on `config.samples` draws of
-/// `sample(rng) -> (p, x)` (parameters and true unknowns).
+/// `sample(rng) -> (p, x)` (parameters and true unknowns), through [`LayoutFeatures`].
 pub fn train_learned_start<F>(layout: &Layout, config: &LearnedStartConfig, mut sample: F) -> Result<TrainedStart, LearnedStartError>
 where
     F: FnMut(&mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>),
 {
-    let (rows_n, width, nx) = (layout_row_count(layout), layout_row_width(layout), layout.unknown_len());
-    let mut rng = ChaCha8Rng::seed_from_u64(config.train.seed);
-    let mut inputs: Vec<Vec<f32>> = Vec::with_capacity(config.samples);
-    let mut targets: Vec<Vec<f64>> = Vec::with_capacity(config.samples);
-    for index in 0..config.samples {
-        let (p, mut x) = sample(&mut rng);
-        let check =
-            |what, got, expected| if got == expected { Ok(()) } else { Err(LearnedStartError::Length { index, what, got, expected }) };
-        check("parameters", p.len(), layout.param_len())?;
-        check("unknowns", x.len(), nx)?;
-        let mut rows = vec![0.0f32; rows_n * width];
-        if !layout_rows(layout, &p, &mut rows) || !simhc::pipeline::learned::normalize_quaternions(layout, &mut x) {
-            return Err(LearnedStartError::NonFinite { index });
-        }
-        inputs.push(rows);
-        targets.push(x);
-    }
-
-    // Standardizations: inputs per channel, non-quaternion outputs per unknown.
-    let in_std = Standardization::of(inputs.iter().flat_map(|r| r.chunks_exact(width)).map(|c| c.iter().map(|v| f64::from(*v))), width);
-    let mut out_std = Standardization::of(targets.iter().map(|x| x.iter().copied()), nx);
-    for f in layout.unknowns.iter().filter(|f| f.kind == FieldKind::Quat) {
-        for k in f.offset..f.offset + 4 {
-            out_std.mean[k] = 0.0;
-            out_std.scale[k] = 1.0;
-        }
-    }
-    let mut next = 0;
-    let data = InMemoryDataset::from_fn(config.samples, rows_n, width, nx, |_| {
-        let i = next;
-        next += 1;
-        let rows =
-            inputs[i].chunks_exact(width).flat_map(|c| c.iter().enumerate().map(|(k, v)| in_std.apply(k, f64::from(*v)) as f32)).collect();
-        let target = targets[i].iter().enumerate().map(|(k, v)| out_std.apply(k, *v) as f32).collect();
-        Sample { rows, target }
-    })?;
-
-    let quats: Vec<usize> = layout.unknowns.iter().filter(|f| f.kind == FieldKind::Quat).map(|f| f.offset).collect();
-    let others: Vec<(usize, usize)> =
-        layout.unknowns.iter().filter(|f| f.kind != FieldKind::Quat).map(|f| (f.offset, f.kind.len())).collect();
-    let model =
-        RegressorConfig::new(width, config.point_widths.clone(), config.head_widths.clone()).with_outputs(nx).with_normalize_output(false);
-    let (trained, run) = train_with_loss(&model, &data, &config.train, |pred, target| {
-        let mut terms: Vec<Tensor<1>> = Vec::new();
-        for &o in &quats {
-            let a = pred.clone().narrow(1, o, 4);
-            let a = a.clone() / a.square().sum_dim(1).sqrt().clamp_min(1e-6);
-            let dot = (a * target.clone().narrow(1, o, 4)).sum_dim(1);
-            terms.push((dot.square().neg() + 1.0).mean());
-        }
-        for &(o, n) in &others {
-            let d = pred.clone().narrow(1, o, n) - target.clone().narrow(1, o, n);
-            terms.push(d.square().sum_dim(1).mean());
-        }
-        terms.into_iter().reduce(|a, b| a + b).expect("a problem has unknowns")
-    });
-    let network = fold_standardizations(&fold(&trained)?, &in_std, &out_std)?;
-    Ok(TrainedStart { start: LearnedStart::new(network, *layout)?, run })
+    let hook = LayoutFeatures::new(layout);
+    let trained = train_with_hook(&hook, &hook.model(config), &config.train, config.samples, |_, rng| sample(rng))?;
+    Ok(TrainedStart { start: LearnedStart::new(trained.folded()?, *layout)?, run: trained.run })
 }
 
 /// Per-column mean and scale (standard deviation, 1 for a constant column).
@@ -268,6 +445,32 @@ mod tests {
         assert!(matches!(nan, Err(LearnedStartError::NonFinite { index: 0 })));
         let zero_quaternion = train_learned_start(&layout, &config, |_| (vec![0.1; 6], vec![0.0, 0.0, 0.0, 0.0, 2.0]));
         assert!(matches!(zero_quaternion, Err(LearnedStartError::NonFinite { index: 0 })));
+    }
+
+    /// A sampler whose scenes never have features is a typed error naming the sample, not an
+    /// endless loop.
+    #[test]
+    fn a_sampler_without_features_is_a_typed_error() {
+        struct Never;
+        impl FeatureHook for Never {
+            type Scene = ();
+            fn input_shape(&self) -> (usize, usize) {
+                (1, 1)
+            }
+            fn target_width(&self) -> usize {
+                1
+            }
+            fn features(&self, _: usize, _: &(), _: &mut [f32], _: &mut [f64]) -> Result<bool, LearnedStartError> {
+                Ok(false)
+            }
+            fn loss(&self, prediction: Tensor<2>, _: Tensor<2>) -> Tensor<1> {
+                prediction.sum()
+            }
+        }
+        let mut draws = 0;
+        let err = scene_dataset(&Never, 3, 0, |_, _| draws += 1).unwrap_err();
+        assert!(matches!(err, LearnedStartError::NoFeatures { index: 0, draws: MAX_DRAWS }), "{err:?}");
+        assert_eq!(draws, MAX_DRAWS);
     }
 
     #[test]

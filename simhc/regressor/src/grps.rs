@@ -26,11 +26,12 @@
 //! rotation error 12.87 deg (38.1 % under 10 deg, 70.4 % under 20 deg), translation 90.4 %,
 //! scale 23.9 %.
 
-use crate::data::{DataError, InMemoryDataset, Sample};
+use crate::data::{InMemoryDataset, Sample};
+use crate::generic::{scene_dataset, train_with_hook, FeatureHook, LearnedStartError};
 use crate::model::{PoseRegressor, RegressorConfig};
-use crate::training::{train_with_loss, TrainConfig, TrainRun};
+use crate::training::{TrainConfig, TrainRun};
 use burn::prelude::*;
-use rand::{Rng, SeedableRng};
+use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc_problems::grps::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
 use simhc_problems::grps::scene::{GrpsScene, GrpsSceneConfig};
@@ -91,20 +92,64 @@ impl Default for GrpsTrainConfig {
     }
 }
 
-/// The training sample of a scene: 8 rows (7 padded) and the 10 targets.
+/// GRPS's feature hook ([`crate::generic`]): 8 rows in the canonical frames of [`GrpsFrame`]
+/// (7 correspondences padded by repeating the last row) and the 10 targets of the module docs,
+/// scored by [`grps_loss`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GrpsFeatures {
+    /// Weight of the translation loss.
+    pub translation_weight: f64,
+    /// Weight of the log-scale loss.
+    pub scale_weight: f64,
+}
+
+impl GrpsFeatures {
+    /// The hook of a training configuration.
+    pub fn of(config: &GrpsTrainConfig) -> Self {
+        Self { translation_weight: config.translation_weight, scale_weight: config.scale_weight }
+    }
+}
+
+impl FeatureHook for GrpsFeatures {
+    type Scene = GrpsScene;
+
+    fn input_shape(&self) -> (usize, usize) {
+        (8, GRPS_ROW_WIDTH)
+    }
+
+    fn target_width(&self) -> usize {
+        GRPS_OUTPUTS
+    }
+
+    fn features(&self, _: usize, scene: &GrpsScene, rows: &mut [f32], target: &mut [f64]) -> Result<bool, LearnedStartError> {
+        let corrs = &scene.correspondences;
+        let Some(frame) = GrpsFrame::new(corrs) else { return Ok(false) };
+        let n = corrs.len().min(8);
+        if n == 0 || !frame.rows(&corrs[..n], &mut rows[..GRPS_ROW_WIDTH * n]) {
+            return Ok(false);
+        }
+        for k in n..8 {
+            rows.copy_within(GRPS_ROW_WIDTH * (n - 1)..GRPS_ROW_WIDTH * n, GRPS_ROW_WIDTH * k);
+        }
+        let t = frame.target(&scene.rotation, &scene.translation, scene.scale);
+        // Finite as the network's f32.
+        if !t.iter().all(|v| (*v as f32).is_finite()) {
+            return Ok(false);
+        }
+        target.copy_from_slice(&t);
+        Ok(true)
+    }
+
+    fn loss(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
+        grps_loss(prediction, target, self.translation_weight, self.scale_weight)
+    }
+}
+
+/// The training sample of a scene ([`GrpsFeatures`]): 8 rows (7 padded) and the 10 targets.
 pub fn scene_sample(scene: &GrpsScene) -> Option<Sample> {
-    let corrs = &scene.correspondences;
-    let frame = GrpsFrame::new(corrs)?;
-    let mut rows = vec![0.0f32; GRPS_ROW_WIDTH * 8];
-    let n = corrs.len().min(8);
-    if !frame.rows(&corrs[..n], &mut rows[..GRPS_ROW_WIDTH * n]) {
-        return None;
-    }
-    for k in n..8 {
-        rows.copy_within(GRPS_ROW_WIDTH * (n - 1)..GRPS_ROW_WIDTH * n, GRPS_ROW_WIDTH * k);
-    }
-    let target = frame.target(&scene.rotation, &scene.translation, scene.scale).map(|v| v as f32).to_vec();
-    target.iter().all(|v| v.is_finite()).then_some(Sample { rows, target })
+    let (mut rows, mut target) = (vec![0.0f32; GRPS_ROW_WIDTH * 8], [0.0f64; GRPS_OUTPUTS]);
+    let hook = GrpsFeatures { translation_weight: 0.0, scale_weight: 0.0 };
+    hook.features(0, scene, &mut rows, &mut target).ok()?.then(|| Sample { rows, target: target.map(|v| v as f32).to_vec() })
 }
 
 /// One training scene from `rng` (module docs).
@@ -130,14 +175,10 @@ pub fn validation_scene(first_seed: u64, i: usize) -> GrpsScene {
     GrpsSceneConfig::default().sample_seeded(first_seed + i as u64).expect("valid config")
 }
 
-/// `count` training scenes drawn in order from `ChaCha8Rng::seed_from_u64(seed)`.
-pub fn training_dataset(config: &GrpsTrainConfig, count: usize, seed: u64) -> Result<InMemoryDataset, DataError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    InMemoryDataset::from_fn(count, 8, GRPS_ROW_WIDTH, GRPS_OUTPUTS, |_| loop {
-        if let Some(s) = scene_sample(&sample(config, &mut rng)) {
-            return s;
-        }
-    })
+/// `count` training scenes drawn in order from `ChaCha8Rng::seed_from_u64(seed)`, through
+/// [`GrpsFeatures`] (a scene without features is replaced by the next).
+pub fn training_dataset(config: &GrpsTrainConfig, count: usize, seed: u64) -> Result<InMemoryDataset, LearnedStartError> {
+    scene_dataset(&GrpsFeatures::of(config), count, seed, |_, rng| sample(config, rng))
 }
 
 /// The loss of the module docs; `pred` and `target` are `[B, 10]`.
@@ -236,14 +277,14 @@ pub struct GrpsTrained {
     pub data_seconds: f64,
 }
 
-/// Samples the training scenes and trains the regressor.
-pub fn train_grps(config: &GrpsTrainConfig) -> Result<GrpsTrained, DataError> {
+/// Trains the regressor through the generic trainer with [`GrpsFeatures`]
+/// ([`train_with_hook`]).
+pub fn train_grps(config: &GrpsTrainConfig) -> Result<GrpsTrained, LearnedStartError> {
     let start = Instant::now();
-    let train = training_dataset(config, config.train_samples, config.train.seed)?;
-    let data_seconds = start.elapsed().as_secs_f64();
-    let (wt, ws) = (config.translation_weight, config.scale_weight);
-    let (model, run) = train_with_loss(&config.model, &train, &config.train, |p, t| grps_loss(p, t, wt, ws));
-    Ok(GrpsTrained { model, run, data_seconds })
+    let trained =
+        train_with_hook(&GrpsFeatures::of(config), &config.model, &config.train, config.train_samples, |_, rng| sample(config, rng))?;
+    let data_seconds = start.elapsed().as_secs_f64() - trained.run.train_seconds;
+    Ok(GrpsTrained { model: trained.model, run: trained.run, data_seconds })
 }
 
 /// Trains with `config`, prints the seed, sizes, timing and validation figures, and writes

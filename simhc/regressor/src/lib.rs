@@ -8,8 +8,13 @@
 //!   validation;
 //! - [`inference`]: the shipped weights, batch-1 and batched prediction, and the export to the
 //!   runtime's allocation-free [`simhc::regressor::FoldedNetwork`];
-//! - [`upnp`]: UPnP training data and [`upnp::train_upnp`];
-//! - [`grps`]: GRPS training data (6D rotation, translation, log scale) and [`grps::train_grps`].
+//! - [`generic`]: the trainer every problem goes through ([`generic::train_with_hook`]): a
+//!   problem's [`generic::FeatureHook`] turns its scenes into input rows and targets and scores
+//!   predictions; a declared problem's default hook reads its layout
+//!   ([`generic::train_learned_start`]);
+//! - [`upnp`]: UPnP's hook (canonical frames, a quaternion) and [`upnp::train_upnp`];
+//! - [`grps`]: GRPS's hook (canonical frames; 6D rotation, translation, log scale) and
+//!   [`grps::train_grps`].
 //!
 //! Train the shipped weights with
 //! `cargo run --release -p simhc-regressor --example train_upnp`.

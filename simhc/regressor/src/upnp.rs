@@ -14,22 +14,59 @@
 //! overlap.
 
 use crate::data::{DataError, InMemoryDataset, Sample};
+use crate::generic::{scene_dataset, train_with_hook, FeatureHook, LearnedStartError};
 use crate::model::{PoseRegressor, RegressorConfig};
-use crate::training::{self, RotationStats, TrainConfig, TrainReport};
+use crate::training::{evaluate, quaternion_loss, RotationStats, TrainConfig, TrainReport};
+use burn::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc_problems::upnp::features::{UpnpFrame, UPNP_OUTPUTS, UPNP_ROW_WIDTH};
 use simhc_problems::upnp::scene::{PointBox, UpnpScene, UpnpSceneConfig};
 use std::time::Instant;
 
-/// The training sample of a scene: its canonical rows and canonical quaternion; `None` for a
-/// scene without canonical frames (coincident points, which the sampler does not produce).
+/// UPnP's feature hook ([`crate::generic`]): a scene's rows in its canonical frames
+/// ([`UpnpFrame`]) and the quaternion of its canonical rotation, scored by the sign-invariant
+/// [`quaternion_loss`]; the network ([`RegressorConfig::upnp`]) normalizes its quaternion
+/// itself.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UpnpFeatures {
+    /// Correspondences per scene.
+    pub points: usize,
+}
+
+impl FeatureHook for UpnpFeatures {
+    type Scene = UpnpScene;
+
+    fn input_shape(&self) -> (usize, usize) {
+        (self.points, UPNP_ROW_WIDTH)
+    }
+
+    fn target_width(&self) -> usize {
+        UPNP_OUTPUTS
+    }
+
+    fn features(&self, _: usize, scene: &UpnpScene, rows: &mut [f32], target: &mut [f64]) -> Result<bool, LearnedStartError> {
+        let corrs = &scene.correspondences;
+        let Some(frame) = UpnpFrame::new(corrs) else { return Ok(false) };
+        if corrs.len() != self.points || !frame.rows(corrs, rows) {
+            return Ok(false);
+        }
+        target.copy_from_slice(&frame.encode(&scene.rotation));
+        Ok(true)
+    }
+
+    fn loss(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
+        quaternion_loss(prediction, target)
+    }
+}
+
+/// The training sample of a scene ([`UpnpFeatures`]): its canonical rows and canonical
+/// quaternion; `None` for a scene without canonical frames (coincident points, which the
+/// sampler does not produce).
 pub fn scene_sample(scene: &UpnpScene) -> Option<Sample> {
-    let frame = UpnpFrame::new(&scene.correspondences)?;
-    let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * scene.correspondences.len()];
-    frame.rows(&scene.correspondences, &mut rows).then_some(())?;
-    let target = frame.encode(&scene.rotation).map(|v| v as f32).to_vec();
-    Some(Sample { rows, target })
+    let hook = UpnpFeatures { points: scene.correspondences.len() };
+    let (mut rows, mut target) = (vec![0.0f32; UPNP_ROW_WIDTH * hook.points], [0.0f64; UPNP_OUTPUTS]);
+    hook.features(0, scene, &mut rows, &mut target).ok()?.then(|| Sample { rows, target: target.map(|v| v as f32).to_vec() })
 }
 
 /// Scene `i` of a stream (module docs): viewer box for even `i`, world box for odd `i`, random
@@ -44,28 +81,19 @@ pub fn validation_scene(config: &UpnpSceneConfig, first_seed: u64, i: usize) -> 
     sample_scene(config, i, &mut ChaCha8Rng::seed_from_u64(first_seed + i as u64))
 }
 
-/// Builds a data set from scenes (all with `scene_config.points` correspondences).
-fn dataset_of(
-    scene_config: &UpnpSceneConfig,
-    count: usize,
-    mut scene: impl FnMut(usize) -> UpnpScene,
-) -> Result<InMemoryDataset, DataError> {
-    InMemoryDataset::from_fn(count, scene_config.points, UPNP_ROW_WIDTH, UPNP_OUTPUTS, |i| {
-        // Sampled scenes have spread points and unit, finite bearings; a failure here is a
-        // sampler bug.
-        scene_sample(&scene(i)).expect("sampled scene has canonical frames")
-    })
-}
-
-/// `count` training scenes drawn in order from `ChaCha8Rng::seed_from_u64(seed)`.
-pub fn training_dataset(scene_config: &UpnpSceneConfig, count: usize, seed: u64) -> Result<InMemoryDataset, DataError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    dataset_of(scene_config, count, |i| sample_scene(scene_config, i, &mut rng))
+/// `count` training scenes drawn in order from `ChaCha8Rng::seed_from_u64(seed)`, through
+/// [`UpnpFeatures`].
+pub fn training_dataset(scene_config: &UpnpSceneConfig, count: usize, seed: u64) -> Result<InMemoryDataset, LearnedStartError> {
+    scene_dataset(&UpnpFeatures { points: scene_config.points }, count, seed, |i, rng| sample_scene(scene_config, i, rng))
 }
 
 /// `count` validation scenes ([`validation_scene`]).
 pub fn validation_dataset(scene_config: &UpnpSceneConfig, count: usize, first_seed: u64) -> Result<InMemoryDataset, DataError> {
-    dataset_of(scene_config, count, |i| validation_scene(scene_config, first_seed, i))
+    InMemoryDataset::from_fn(count, scene_config.points, UPNP_ROW_WIDTH, UPNP_OUTPUTS, |i| {
+        // Sampled scenes have spread points and unit, finite bearings; a failure here is a
+        // sampler bug.
+        scene_sample(&validation_scene(scene_config, first_seed, i)).expect("sampled scene has canonical frames")
+    })
 }
 
 /// Settings of [`train_upnp`]; the default is the configuration of the shipped weights.
@@ -112,14 +140,25 @@ pub struct UpnpTrained {
     pub data_seconds: f64,
 }
 
-/// Samples the training and validation scenes and trains the regressor.
-pub fn train_upnp(config: &UpnpTrainConfig) -> Result<UpnpTrained, DataError> {
+/// Trains the regressor through the generic trainer with [`UpnpFeatures`]
+/// ([`train_with_hook`]), then validates it.
+pub fn train_upnp(config: &UpnpTrainConfig) -> Result<UpnpTrained, LearnedStartError> {
     let start = Instant::now();
-    let train = training_dataset(&config.scene, config.train_samples, config.train.seed)?;
+    let hook = UpnpFeatures { points: config.scene.points };
+    let trained = train_with_hook(&hook, &config.model, &config.train, config.train_samples, |i, rng| sample_scene(&config.scene, i, rng))?;
     let valid = validation_dataset(&config.scene, config.valid_samples, config.valid_first_seed)?;
-    let data_seconds = start.elapsed().as_secs_f64();
-    let (model, report) = training::train(&config.model, &train, &valid, &config.train);
-    Ok(UpnpTrained { model, report, data_seconds })
+    let run = trained.run;
+    let data_seconds = start.elapsed().as_secs_f64() - run.train_seconds;
+    let report = TrainReport {
+        seed: config.train.seed,
+        train_samples: config.train_samples,
+        epochs: config.train.epochs,
+        steps: run.steps,
+        train_seconds: run.train_seconds,
+        epoch_losses: run.epoch_losses,
+        valid: evaluate(&trained.model, &valid),
+    };
+    Ok(UpnpTrained { model: trained.model, report, data_seconds })
 }
 
 /// Rotation-error statistics of `predict` (canonical rows -> canonical quaternion, decoded

@@ -230,11 +230,10 @@ where
         let mut plausible: Option<Solved<V::Check, NX>> = None;
         let mut last = None;
         let mut plan = Plan::new(starts, schedule, self.other_simulators.len(), data);
-        while let Some((Attempt { provider, method }, x0)) = plan.next() {
+        // The deadline is checked before the plan computes the next start.
+        while attempts < deadline {
+            let Some((Attempt { provider, method }, x0)) = plan.next() else { break };
             times.start = plan.start_time;
-            if attempts >= deadline {
-                break;
-            }
             // An attempt that cannot run (no start for this data, no such provider or
             // simulator) is no attempt.
             let x0 = match x0 {

@@ -91,6 +91,10 @@ pub enum RegressorError {
     /// An input value was NaN or infinite.
     #[error("non-finite input value")]
     NonFinite,
+    /// The learned start's input rows could not be made from the parameters
+    /// ([`crate::pipeline::InputRows::write`]).
+    #[error("no input rows for these parameters (wrong length, a non-finite value or degenerate data)")]
+    NoInputRows,
 }
 
 /// One dense layer `y = b + x W` with `W` stored row-major `[inputs][outputs]`.

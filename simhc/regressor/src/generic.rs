@@ -10,6 +10,9 @@
 //!   the standardizations are folded into the first and last dense layers of the exported
 //!   [`FoldedNetwork`] ([`HookTrained::folded`]), which therefore maps raw parameters to raw
 //!   unknowns. [`train_learned_start`] trains it into a [`LearnedStart`].
+//!   [`train_learned_start_with`] does the same on the problem's own [`InputRows`] (for example
+//!   distances or ratios instead of raw coordinates); the trained start reads its parameters
+//!   through the same value at run time.
 //! - UPnP and GRPS have their own hooks ([`crate::upnp::UpnpFeatures`],
 //!   [`crate::grps::GrpsFeatures`]): rows in canonical frames, built by the same code the
 //!   runtime calls, and their own output encodings and losses.
@@ -25,7 +28,7 @@ use burn::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use simhc::layout::{FieldKind, Layout};
-use simhc::pipeline::learned::{layout_row_count, layout_row_width, layout_rows, LearnedStart};
+use simhc::pipeline::learned::{InputRows, LayoutRows, LearnedStart};
 use simhc::regressor::{DenseLayer, FoldedNetwork, RegressorError};
 use thiserror::Error;
 
@@ -242,32 +245,41 @@ pub fn train_with_hook<H: FeatureHook>(
     Ok(HookTrained { model, run, standardization })
 }
 
-/// A declared problem's default hook (module docs): a scene is `(p, x)`, the parameters and
-/// the true unknowns.
+/// A declared problem's hook (module docs): a scene is `(p, x)`, the parameters and the true
+/// unknowns; the inputs are the rows of `R` ([`InputRows`]: by default [`LayoutRows`], the
+/// layout's rows), the targets the unknowns in layout order.
 #[derive(Debug, Clone, Copy)]
-pub struct LayoutFeatures<'a> {
+pub struct LayoutFeatures<'a, R = LayoutRows> {
     layout: &'a Layout,
+    rows: R,
 }
 
 impl<'a> LayoutFeatures<'a> {
-    /// The hook of a problem of this layout.
+    /// The hook of a problem of this layout, on the layout's rows.
     pub fn new(layout: &'a Layout) -> Self {
-        Self { layout }
+        Self { layout, rows: LayoutRows(*layout) }
+    }
+}
+
+impl<'a, R: InputRows> LayoutFeatures<'a, R> {
+    /// The hook of a problem of this layout, on the problem's own input rows.
+    pub fn with_rows(layout: &'a Layout, rows: R) -> Self {
+        Self { layout, rows }
     }
 
     /// The network of `config` for this hook.
     pub fn model(&self, config: &LearnedStartConfig) -> RegressorConfig {
-        RegressorConfig::new(layout_row_width(self.layout), config.point_widths.clone(), config.head_widths.clone())
+        RegressorConfig::new(self.rows.shape().1, config.point_widths.clone(), config.head_widths.clone())
             .with_outputs(self.layout.unknown_len())
             .with_normalize_output(false)
     }
 }
 
-impl FeatureHook for LayoutFeatures<'_> {
+impl<R: InputRows> FeatureHook for LayoutFeatures<'_, R> {
     type Scene = (Vec<f64>, Vec<f64>);
 
     fn input_shape(&self) -> (usize, usize) {
-        (layout_row_count(self.layout), layout_row_width(self.layout))
+        self.rows.shape()
     }
 
     fn target_width(&self) -> usize {
@@ -281,10 +293,11 @@ impl FeatureHook for LayoutFeatures<'_> {
         check("parameters", p.len(), layout.param_len())?;
         check("unknowns", x.len(), layout.unknown_len())?;
         target.copy_from_slice(x);
-        if !layout_rows(layout, p, rows) || !simhc::pipeline::learned::normalize_quaternions(layout, target) {
+        if p.iter().any(|v| !v.is_finite()) || !simhc::pipeline::learned::normalize_quaternions(layout, target) {
             return Err(LearnedStartError::NonFinite { index });
         }
-        Ok(true)
+        // A scene whose rows cannot be made (degenerate for the problem's own rows) is redrawn.
+        Ok(self.rows.write(p, rows) && rows.iter().all(|v| v.is_finite()))
     }
 
     fn standardize(&self) -> Standardize {
@@ -312,22 +325,39 @@ impl FeatureHook for LayoutFeatures<'_> {
 
 /// A trained learned start.
 #[derive(Debug, Clone)]
-pub struct TrainedStart {
+pub struct TrainedStart<R = LayoutRows> {
     /// The start provider (its network has the standardizations folded in).
-    pub start: LearnedStart,
+    pub start: LearnedStart<R>,
     /// What the training loop did.
     pub run: TrainRun,
 }
 
 /// Trains a learned start for a problem of `layout` on `config.samples` draws of
-/// `sample(rng) -> (p, x)` (parameters and true unknowns), through [`LayoutFeatures`].
-pub fn train_learned_start<F>(layout: &Layout, config: &LearnedStartConfig, mut sample: F) -> Result<TrainedStart, LearnedStartError>
+/// `sample(rng) -> (p, x)` (parameters and true unknowns), on the layout's rows
+/// ([`LayoutFeatures`]).
+pub fn train_learned_start<F>(layout: &Layout, config: &LearnedStartConfig, sample: F) -> Result<TrainedStart, LearnedStartError>
 where
     F: FnMut(&mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>),
 {
-    let hook = LayoutFeatures::new(layout);
+    train_learned_start_with(layout, LayoutRows(*layout), config, sample)
+}
+
+/// [`train_learned_start`] on the problem's own input rows `rows`; the trained start reads
+/// its parameters through the same `rows`. A scene whose rows cannot be made is redrawn.
+pub fn train_learned_start_with<R, F>(
+    layout: &Layout,
+    rows: R,
+    config: &LearnedStartConfig,
+    mut sample: F,
+) -> Result<TrainedStart<R>, LearnedStartError>
+where
+    R: InputRows,
+    F: FnMut(&mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>),
+{
+    let hook = LayoutFeatures::with_rows(layout, &rows);
     let trained = train_with_hook(&hook, &hook.model(config), &config.train, config.samples, |_, rng| sample(rng))?;
-    Ok(TrainedStart { start: LearnedStart::new(trained.folded()?, *layout)?, run: trained.run })
+    let network = trained.folded()?;
+    Ok(TrainedStart { start: LearnedStart::with_rows(network, *layout, rows)?, run: trained.run })
 }
 
 /// Per-column mean and scale (standard deviation, 1 for a constant column).
@@ -471,6 +501,38 @@ mod tests {
         let err = scene_dataset(&Never, 3, 0, |_, _| draws += 1).unwrap_err();
         assert!(matches!(err, LearnedStartError::NoFeatures { index: 0, draws: MAX_DRAWS }), "{err:?}");
         assert_eq!(draws, MAX_DRAWS);
+    }
+
+    /// A scene that the problem's own input rows refuse is redrawn, and the rows are the
+    /// trainer's input.
+    #[test]
+    fn scenes_without_own_rows_are_redrawn() {
+        use simhc::layout::FieldLayout;
+        struct Positive;
+        impl InputRows for Positive {
+            fn shape(&self) -> (usize, usize) {
+                (1, 2)
+            }
+            fn write(&self, p: &[f64], out: &mut [f32]) -> bool {
+                out.copy_from_slice(&[p[0] as f32, (p[0] * p[0]) as f32]);
+                p[0] > 0.0
+            }
+        }
+        const ONE: &[FieldLayout] = &[FieldLayout { name: "a", kind: FieldKind::Scalar, offset: 0 }];
+        let layout = Layout { unknowns: ONE, row: ONE, globals: &[], rows: 1, per_row: 1 };
+        let hook = LayoutFeatures::with_rows(&layout, Positive);
+        assert_eq!(hook.input_shape(), (1, 2));
+        let mut draws = 0;
+        let data = scene_dataset(&hook, 3, 0, |_, _| {
+            draws += 1;
+            (vec![if draws % 2 == 0 { f64::from(draws) } else { -1.0 }], vec![0.5])
+        })
+        .unwrap();
+        assert_eq!(draws, 6);
+        for (i, v) in [2.0f32, 4.0, 6.0].into_iter().enumerate() {
+            assert_eq!(data.rows(i), &[v, v * v]);
+            assert_eq!(data.target(i), &[0.5]);
+        }
     }
 
     #[test]

@@ -1,17 +1,62 @@
 //! The generic learned start: a [`FoldedNetwork`] that reads a declared problem's parameters
-//! through its [`Layout`] and predicts its unknowns. Trained by `simhc_regressor::generic`
-//! from any scene sampler; the input and output standardizations are folded into the first and
-//! last layers, so the weights file is the whole model.
+//! as network input rows ([`InputRows`]) and predicts its unknowns. Trained by
+//! `simhc_regressor::generic` from any scene sampler, through the same [`InputRows`] value;
+//! the input and output standardizations are folded into the first and last layers, so the
+//! weights file is the whole model.
 //!
-//! Rows: one per declared row, `[row parameters, global parameters]`
-//! ([`layout_row_width`] numbers); a problem without rows has one row of its globals. Outputs:
-//! the unknown vector in layout order; a [`FieldKind::Quat`] unknown is normalized here (its
-//! loss was sign-invariant), the others come out in their own units.
+//! Rows: by default ([`LayoutRows`]) one per declared row, `[row parameters, global
+//! parameters]` ([`layout_row_width`] numbers); a problem without rows has one row of its
+//! globals. A problem whose raw parameters make poor features (ratios, distances, invariants)
+//! implements [`InputRows`] itself. Outputs: the unknown vector in layout order; a
+//! [`FieldKind::Quat`] unknown is normalized here (its loss was sign-invariant), the others
+//! come out in their own units.
 
 use super::{StartError, StartProvider};
 use crate::layout::{FieldKind, Layout};
 use crate::regressor::{FoldedNetwork, RegressorError};
 use nalgebra::SVector;
+
+/// How a learned start reads a problem's parameters: the network's input rows. The trainer
+/// and the runtime call the same value, so the network sees in use what it saw in training.
+pub trait InputRows {
+    /// Rows per input and numbers per row.
+    fn shape(&self) -> (usize, usize);
+    /// Writes the rows of parameters `p` into `out` (`rows * width` numbers, row after row);
+    /// `false` when `p` has no features: wrong length, a non-finite value, degenerate data.
+    fn write(&self, p: &[f64], out: &mut [f32]) -> bool;
+}
+
+impl<R: InputRows + ?Sized> InputRows for &R {
+    fn shape(&self) -> (usize, usize) {
+        (**self).shape()
+    }
+    fn write(&self, p: &[f64], out: &mut [f32]) -> bool {
+        (**self).write(p, out)
+    }
+}
+
+impl<R: InputRows + ?Sized> InputRows for Box<R> {
+    fn shape(&self) -> (usize, usize) {
+        (**self).shape()
+    }
+    fn write(&self, p: &[f64], out: &mut [f32]) -> bool {
+        (**self).write(p, out)
+    }
+}
+
+/// The default input rows: the parameters as declared, `[row parameters, global parameters]`
+/// per row ([`layout_rows`]).
+#[derive(Debug, Clone, Copy)]
+pub struct LayoutRows(pub Layout);
+
+impl InputRows for LayoutRows {
+    fn shape(&self) -> (usize, usize) {
+        (layout_row_count(&self.0), layout_row_width(&self.0))
+    }
+    fn write(&self, p: &[f64], out: &mut [f32]) -> bool {
+        layout_rows(&self.0, p, out)
+    }
+}
 
 /// Numbers per network input row for `layout`.
 pub fn layout_row_width(layout: &Layout) -> usize {
@@ -54,18 +99,29 @@ pub fn normalize_quaternions(layout: &Layout, x: &mut [f64]) -> bool {
     x.iter().all(|v| v.is_finite())
 }
 
-/// A learned start for a declared problem whose pipeline data is its parameter vector.
+/// A learned start for a declared problem whose pipeline data is its parameter vector, reading
+/// it through input rows `R`.
 #[derive(Debug, Clone)]
-pub struct LearnedStart {
+pub struct LearnedStart<R = LayoutRows> {
     network: FoldedNetwork,
     layout: Layout,
+    rows: R,
 }
 
 impl LearnedStart {
-    /// The start of a trained `network` for a problem of this `layout`; checks the widths.
+    /// The start of a trained `network` for a problem of this `layout`, reading the layout's
+    /// rows; checks the widths.
     pub fn new(network: FoldedNetwork, layout: Layout) -> Result<Self, RegressorError> {
-        if network.input_width() != layout_row_width(&layout) {
-            return Err(RegressorError::Format("network input width differs from the layout's row width"));
+        Self::with_rows(network, layout, LayoutRows(layout))
+    }
+}
+
+impl<R: InputRows> LearnedStart<R> {
+    /// The start of a `network` trained on input rows `rows` for a problem of this `layout`;
+    /// checks the widths.
+    pub fn with_rows(network: FoldedNetwork, layout: Layout, rows: R) -> Result<Self, RegressorError> {
+        if network.input_width() != rows.shape().1 {
+            return Err(RegressorError::Format("network input width differs from the input rows' width"));
         }
         if network.output_width() != layout.unknown_len() {
             return Err(RegressorError::Format("network output width differs from the number of unknowns"));
@@ -73,7 +129,7 @@ impl LearnedStart {
         if network.normalizes_output() {
             return Err(RegressorError::Format("a generic learned start decodes its own outputs"));
         }
-        Ok(Self { network, layout })
+        Ok(Self { network, layout, rows })
     }
 
     /// The network.
@@ -81,11 +137,17 @@ impl LearnedStart {
         &self.network
     }
 
+    /// The input rows.
+    pub fn rows(&self) -> &R {
+        &self.rows
+    }
+
     /// The predicted unknowns for parameters `p`, quaternions normalized.
     pub fn predict(&self, p: &[f64], x: &mut [f64]) -> Result<(), RegressorError> {
-        let mut rows = vec![0.0f32; layout_row_count(&self.layout) * layout_row_width(&self.layout)];
-        if !layout_rows(&self.layout, p, &mut rows) {
-            return Err(RegressorError::NonFinite);
+        let (count, width) = self.rows.shape();
+        let mut rows = vec![0.0f32; count * width];
+        if !self.rows.write(p, &mut rows) || !rows.iter().all(|v| v.is_finite()) {
+            return Err(RegressorError::NoInputRows);
         }
         self.network.forward(&rows, x)?;
         if normalize_quaternions(&self.layout, x) {
@@ -96,7 +158,7 @@ impl LearnedStart {
     }
 }
 
-impl<const NX: usize, const NP: usize> StartProvider<SVector<f64, NP>, NX> for LearnedStart {
+impl<R: InputRows, const NX: usize, const NP: usize> StartProvider<SVector<f64, NP>, NX> for LearnedStart<R> {
     fn name(&self) -> &'static str {
         "learned"
     }

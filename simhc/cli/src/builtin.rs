@@ -46,40 +46,77 @@ struct GrpsBench {
     grps: grps::GrpsArgs,
 }
 
-/// `simhc train upnp|grps`.
-#[derive(Args)]
-struct TrainArgs {
-    /// Output folder (default: the shipped weights, problems/weights).
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Seed of the training stream (default: that of the shipped weights).
-    #[arg(long)]
-    seed: Option<u64>,
-    /// Training scenes (default: that of the shipped weights).
-    #[arg(long)]
-    samples: Option<usize>,
-    /// Epochs (default: that of the shipped weights).
-    #[arg(long)]
-    epochs: Option<usize>,
-}
+/// `simhc train upnp|grps`, where the `train` feature builds the trainer.
+#[cfg(feature = "train")]
+mod train {
+    use super::parse;
+    use clap::{ArgMatches, Args};
+    use std::path::PathBuf;
 
-impl TrainArgs {
-    fn apply(&self, train: &mut simhc_regressor::TrainConfig, samples: &mut usize) {
-        if let Some(seed) = self.seed {
-            train.seed = seed;
+    /// `simhc train upnp|grps`.
+    #[derive(Args)]
+    pub(super) struct TrainArgs {
+        /// Output folder (default: the shipped weights, problems/weights).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Seed of the training stream (default: that of the shipped weights).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Training scenes (default: that of the shipped weights).
+        #[arg(long)]
+        samples: Option<usize>,
+        /// Epochs (default: that of the shipped weights).
+        #[arg(long)]
+        epochs: Option<usize>,
+    }
+
+    impl TrainArgs {
+        fn apply(&self, train: &mut simhc_regressor::TrainConfig, samples: &mut usize) {
+            if let Some(seed) = self.seed {
+                train.seed = seed;
+            }
+            if let Some(n) = self.samples {
+                *samples = n;
+            }
+            if let Some(e) = self.epochs {
+                train.epochs = e;
+            }
         }
-        if let Some(n) = self.samples {
-            *samples = n;
-        }
-        if let Some(e) = self.epochs {
-            train.epochs = e;
+
+        fn out(&self) -> PathBuf {
+            self.out.clone().unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../problems/weights"))
         }
     }
 
-    fn out(&self) -> PathBuf {
-        self.out.clone().unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../problems/weights"))
+    pub(super) fn upnp(args: &ArgMatches) -> Result<(), String> {
+        let a: TrainArgs = parse(args)?;
+        let mut config = simhc_regressor::upnp::UpnpTrainConfig::default();
+        a.apply(&mut config.train, &mut config.train_samples);
+        simhc_regressor::upnp::train_and_write(&a.out(), &config).map_err(|e| e.to_string())
+    }
+
+    pub(super) fn grps(args: &ArgMatches) -> Result<(), String> {
+        let a: TrainArgs = parse(args)?;
+        let mut config = simhc_regressor::grps::GrpsTrainConfig::default();
+        a.apply(&mut config.train, &mut config.train_samples);
+        simhc_regressor::grps::train_and_write(&a.out(), &config).map_err(|e| e.to_string())
     }
 }
+
+/// `simhc train <name>`: `None` where the `train` feature is off (no trainer is built).
+fn train_command(name: &'static str, about: &'static str) -> Option<Command> {
+    #[cfg(feature = "train")]
+    return Some(command::<train::TrainArgs>(name, about));
+    #[cfg(not(feature = "train"))]
+    {
+        let _ = (name, about);
+        None
+    }
+}
+
+/// What `train` says where the `train` feature is off (its commands are not registered then).
+#[cfg(not(feature = "train"))]
+pub(crate) const NO_TRAINER: &str = "this build has no trainer: enable simhc-cli's `train` feature";
 
 /// `simhc monodromy <problem>`.
 #[derive(Args, Debug, Clone)]
@@ -177,7 +214,7 @@ impl Registration for Upnp {
     fn command(&self, verb: Verb) -> Option<Command> {
         Some(match verb {
             Verb::Bench => command::<UpnpBench>("upnp", "Generalized absolute pose (UPnP): the paper's Table 1"),
-            Verb::Train => command::<TrainArgs>("upnp", "Train the UPnP regressor (defaults: the shipped weights' settings)"),
+            Verb::Train => return train_command("upnp", "Train the UPnP regressor (defaults: the shipped weights' settings)"),
             Verb::Solve => command::<SolveArgs>("upnp", "Solve UPnP correspondences {\"correspondences\": [{\"p\", \"f\", \"v\"}, ..]}"),
             Verb::Monodromy => {
                 command::<MonodromyArgs>("upnp", "UPnP as the square Lagrange system [q, lambda] (40 solutions modulo q -> -q)")
@@ -223,12 +260,10 @@ impl Registration for Upnp {
                 }
                 Ok(())
             }
-            Verb::Train => {
-                let a: TrainArgs = parse(args)?;
-                let mut config = simhc_regressor::upnp::UpnpTrainConfig::default();
-                a.apply(&mut config.train, &mut config.train_samples);
-                simhc_regressor::upnp::train_and_write(&a.out(), &config).map_err(|e| e.to_string())
-            }
+            #[cfg(feature = "train")]
+            Verb::Train => train::upnp(args),
+            #[cfg(not(feature = "train"))]
+            Verb::Train => Err(NO_TRAINER.into()),
             Verb::Solve => solve(args, upnp::solve_file),
             Verb::Monodromy => MonodromyArgs::run(args, simhc_problems::start_systems::run_monodromy_upnp),
         }
@@ -249,7 +284,7 @@ impl Registration for Grps {
             Verb::Bench => {
                 command::<GrpsBench>("grps", "Generalized relative pose and scale: stability, start errors, noise, RANSAC, figures")
             }
-            Verb::Train => command::<TrainArgs>("grps", "Train the GRPS regressor (defaults: the shipped weights' settings)"),
+            Verb::Train => return train_command("grps", "Train the GRPS regressor (defaults: the shipped weights' settings)"),
             Verb::Solve => {
                 command::<SolveArgs>("grps", "Solve GRPS correspondences {\"correspondences\": [{\"f\", \"v\", \"fp\", \"vp\"}, ..]}")
             }
@@ -279,12 +314,10 @@ impl Registration for Grps {
                 print!("{}", grps::text(&report));
                 Ok(())
             }
-            Verb::Train => {
-                let a: TrainArgs = parse(args)?;
-                let mut config = simhc_regressor::grps::GrpsTrainConfig::default();
-                a.apply(&mut config.train, &mut config.train_samples);
-                simhc_regressor::grps::train_and_write(&a.out(), &config).map_err(|e| e.to_string())
-            }
+            #[cfg(feature = "train")]
+            Verb::Train => train::grps(args),
+            #[cfg(not(feature = "train"))]
+            Verb::Train => Err(NO_TRAINER.into()),
             Verb::Solve => solve(args, grps::solve_file),
             Verb::Monodromy => MonodromyArgs::run(args, simhc_problems::start_systems::run_monodromy_grps7),
         }

@@ -25,13 +25,14 @@ use simhc::monodromy::SignFlip;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
 use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::pipeline::{
-    Attempt, Canonicalize, Fallback, Generic, LearnedStart, Method, Pipeline, PipelineError, PipelineOptions, StartError, StartProvider,
-    TargetParameters, Validator,
+    Attempt, Canonicalize, Fallback, Generic, InputRows, LayoutRows, LearnedStart, Method, Pipeline, PipelineError, PipelineOptions,
+    StartError, StartProvider, TargetParameters, Validator,
 };
 use simhc::regressor::FoldedNetwork;
 use simhc::{CoefficientForm, MinNormSimulator, ParamDerivative, ProblemInfo, ProblemLayout};
 use simhc_problems::start_systems::{run_monodromy, MonodromyConfig, MonodromyReport, StartSystemError, StartSystemFile};
-use simhc_regressor::generic::{train_learned_start, LearnedStartConfig};
+#[cfg(feature = "train")]
+use simhc_regressor::generic::{train_learned_start_with, LearnedStartConfig};
 use std::cell::RefCell;
 use std::marker::PhantomData;
 use std::path::{Path, PathBuf};
@@ -98,7 +99,17 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn canonicalize(&self, _p: &SVector<f64, ND>) -> Option<(SVector<f64, ND>, CanonicalFrame<NX>)> {
         None
     }
+    /// The learned start's input rows, in training and in use (of the data in the canonical
+    /// frame, if [`DeclaredProblem::canonicalize`] makes one). `None` (the default): the data
+    /// layout's rows, `[row parameters, global parameters]` per row
+    /// ([`simhc::pipeline::LayoutRows`]). Implement [`InputRows`] when other numbers make
+    /// better features (distances, ratios, invariants); weights trained on one kind of rows do
+    /// not load with another.
+    fn input_rows(&self) -> Option<&dyn InputRows> {
+        None
+    }
     /// Training settings (`train` overrides samples, epochs and seed).
+    #[cfg(feature = "train")]
     fn training(&self) -> LearnedStartConfig {
         LearnedStartConfig::default()
     }
@@ -362,6 +373,7 @@ where
 }
 
 /// `<app> train <problem>`.
+#[cfg(feature = "train")]
 #[derive(Args, Debug)]
 struct TrainArgs {
     /// Training scenes (default: the problem's training settings).
@@ -507,7 +519,15 @@ where
         }
     }
 
-    fn learned_start(&self, weights: &Option<PathBuf>) -> Result<LearnedStart, String> {
+    /// The learned start's input rows: the problem's, or the data layout's.
+    fn input_rows(&self) -> Box<dyn InputRows + '_> {
+        match self.problem.input_rows() {
+            Some(rows) => Box::new(rows),
+            None => Box::new(LayoutRows(S::Data::LAYOUT)),
+        }
+    }
+
+    fn learned_start(&self, weights: &Option<PathBuf>) -> Result<LearnedStart<Box<dyn InputRows + '_>>, String> {
         let bytes: std::borrow::Cow<'_, [u8]> = match weights {
             Some(path) => std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?.into(),
             None => self
@@ -517,9 +537,10 @@ where
                 .into(),
         };
         let network = FoldedNetwork::from_bytes(&bytes).map_err(|e| format!("weights: {e}"))?;
-        LearnedStart::new(network, S::Data::LAYOUT).map_err(|e| format!("weights: {e}"))
+        LearnedStart::with_rows(network, S::Data::LAYOUT, self.input_rows()).map_err(|e| format!("weights: {e}"))
     }
 
+    #[cfg(feature = "train")]
     fn train(&self, a: TrainArgs) -> Result<(), String> {
         let mut config = self.problem.training();
         config.samples = a.samples.unwrap_or(config.samples);
@@ -528,7 +549,7 @@ where
         config.train.progress = true;
         let out = a.out.unwrap_or_else(|| PathBuf::from(format!("{}.folded", S::NAME)));
         println!("train {}: {} scenes (noise {}), {} epochs, seed {}", S::NAME, config.samples, a.noise, config.train.epochs, a.seed);
-        let trained = train_learned_start(&S::Data::LAYOUT, &config, |rng| {
+        let trained = train_learned_start_with(&S::Data::LAYOUT, self.input_rows(), &config, |rng| {
             let (mut p, mut x) = self.problem.scene(rng, a.noise);
             if let Some((pc, frame)) = self.problem.canonicalize(&p) {
                 (p, x) = (pc, (frame.to_canonical)(&x));
@@ -734,7 +755,10 @@ where
     fn command(&self, verb: Verb) -> Option<Command> {
         let c = Command::new(S::NAME);
         let c = match verb {
+            #[cfg(feature = "train")]
             Verb::Train => TrainArgs::augment_args(c),
+            #[cfg(not(feature = "train"))]
+            Verb::Train => return None,
             Verb::Bench => BenchArgs::augment_args(c),
             Verb::Solve => SolveArgs::augment_args(c),
             Verb::Monodromy => {
@@ -764,7 +788,10 @@ where
             ));
         }
         match verb {
+            #[cfg(feature = "train")]
             Verb::Train => self.train(parse(args)?),
+            #[cfg(not(feature = "train"))]
+            Verb::Train => Err(crate::builtin::NO_TRAINER.into()),
             Verb::Bench => self.bench(parse(args)?),
             Verb::Solve => self.solve(parse(args)?),
             Verb::Monodromy => {

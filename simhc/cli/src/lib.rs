@@ -8,6 +8,9 @@
 //!     simhc_cli::App::new("grp", "generalized relative pose").register(simhc_cli::Declared::new(MyProblem)).main()
 //! }
 //! ```
+//!
+//! The `train` commands need the default feature `train` (the burn trainer); without it the
+//! crate builds without burn, and `bench`, `solve` and `monodromy` stay.
 
 pub mod app;
 pub mod builtin;
@@ -23,7 +26,9 @@ pub use builtin::{Grps, TrackerBench, Upnp};
 pub use declared::{
     AllRoots, CanonicalFrame, Declared, DeclaredProblem, FirstRows, FirstRowsError, RandomStart, Refinement, SquareSubsystem,
 };
+#[cfg(feature = "train")]
 pub use simhc_regressor::generic::LearnedStartConfig;
+#[cfg(feature = "train")]
 pub use simhc_regressor::TrainConfig;
 
 /// The `simhc` application: the built-in problems and the tracker benchmark.

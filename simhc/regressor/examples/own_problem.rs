@@ -1,6 +1,7 @@
 //! Your own problem, end to end: declare it, write its scene sampler, train its learned start,
-//! solve with the Simulator HC pipeline, measure. The README's tutorial walks through this
-//! file; `simhc/regressor/tests/learned_start.rs` runs the same code with a smaller training.
+//! solve with the Simulator HC pipeline, measure, calling the pipeline and the trainer directly
+//! (the README's tutorial does the same through `simhc_cli::Declared`);
+//! `simhc/regressor/tests/learned_start.rs` runs the same code with a smaller training.
 //!
 //!     cargo run --release -p simhc-regressor --example own_problem -- train [seed]
 //!     cargo run --release -p simhc-regressor --example own_problem -- sample FILE [seed]

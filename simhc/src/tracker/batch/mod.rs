@@ -203,8 +203,13 @@ where
                 None => kernels.row(op.x, &*cl, &*dcl, fr, jr, dr),
             }
         }
+        // The global equations from the same kernel value as the rows (`ParamLanes: PathLanes`).
         let g = s.rows * s.epr;
-        kernels.globals(op.x, &mut f[g..], &mut j.as_flattened_mut()[g * N..]);
+        let (fg, jg) = (&mut f[g..], &mut j.as_flattened_mut()[g * N..]);
+        match params {
+            Some(params) => params.globals(op.x, fg, jg),
+            None => kernels.globals(op.x, fg, jg),
+        }
         *op.status = solve_lanes(&mut j, &mut f, &mut d);
         *op.u = f;
         for (vi, di) in op.v.iter_mut().zip(d) {

@@ -24,16 +24,21 @@ fn median(v: &[f64]) -> f64 {
     v[v.len() / 2]
 }
 
+/// A small network trained on `samples` scenes for `epochs` epochs, seeded (printed).
+fn small_training(seed: u64, samples: usize, epochs: usize) -> LearnedStartConfig {
+    println!("seed {seed}");
+    LearnedStartConfig {
+        point_widths: vec![32, 64, 64],
+        head_widths: vec![64],
+        samples,
+        train: TrainConfig { epochs, batch_size: 64, learning_rate: 3e-3, final_learning_rate: 3e-5, seed, progress: false },
+    }
+}
+
 #[test]
 fn a_declared_problem_trains_and_solves_through_the_pipeline() {
     let seed = 11;
-    println!("seed {seed}");
-    let config = LearnedStartConfig {
-        point_widths: vec![32, 64, 64],
-        head_widths: vec![64],
-        samples: 20_000,
-        train: TrainConfig { epochs: 8, batch_size: 64, learning_rate: 3e-3, final_learning_rate: 3e-5, seed, progress: false },
-    };
+    let config = small_training(seed, 20_000, 8);
     let trained = train(&config).expect("training runs");
     println!("trained in {:.1} s, epoch losses {:?}", trained.run.train_seconds, trained.run.epoch_losses);
 
@@ -110,13 +115,7 @@ impl InputRows for Centred {
 #[test]
 fn a_problem_trains_and_predicts_through_its_own_input_rows() {
     let seed = 12;
-    println!("seed {seed}");
-    let config = LearnedStartConfig {
-        point_widths: vec![32, 64, 64],
-        head_widths: vec![64],
-        samples: 4000,
-        train: TrainConfig { epochs: 4, batch_size: 64, learning_rate: 3e-3, final_learning_rate: 3e-5, seed, progress: false },
-    };
+    let config = small_training(seed, 4000, 4);
     let trained = train_learned_start_with(&Pnp::LAYOUT, Centred::default(), &config, |rng| {
         let (p, x) = scene(rng);
         (p.as_slice().to_vec(), x.as_slice().to_vec())

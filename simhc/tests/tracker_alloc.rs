@@ -1,6 +1,6 @@
 //! Proof of the zero-allocation claim: a counting global allocator, armed only on this test's
 //! thread while `track` / `newton` run, for square, overdetermined, squared-up, complex and
-//! failing paths.
+//! failing paths, and while a learned start predicts.
 #![allow(unsafe_code)]
 
 mod tracker_support;
@@ -159,4 +159,25 @@ fn tracking_does_not_allocate() {
     let (r, n) = counted(|| track(&fold, &Vector1::new(-(3.0f64.sqrt())), &TrackerOptions::single_path()).map(|r| r.stats));
     assert!(r.map_or(true, |s| s.drag_steps > 0));
     assert_eq!(n, 0, "drag steps: {n} allocations");
+}
+
+#[test]
+fn a_learned_start_predicts_without_allocating() {
+    use simhc::layout::{FieldKind, FieldLayout, Layout};
+    use simhc::pipeline::LearnedStart;
+    use simhc::regressor::{DenseLayer, FoldedNetwork};
+    const UNKNOWNS: &[FieldLayout] =
+        &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "t", kind: FieldKind::Vector(3), offset: 4 }];
+    const ROW: &[FieldLayout] = &[FieldLayout { name: "f", kind: FieldKind::Vector(3), offset: 0 }];
+    let layout = Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 5, per_row: 3 };
+    let point = DenseLayer::new(3, 8, (0..24).map(|i| (i as f32 * 0.37).sin()).collect(), vec![0.1; 8]).unwrap();
+    let head = DenseLayer::new(8, 7, (0..56).map(|i| (i as f32 * 0.11).cos()).collect(), vec![0.2; 7]).unwrap();
+    let start = LearnedStart::new(FoldedNetwork::new(3, vec![point], vec![head], false).unwrap(), layout).unwrap();
+    let p: Vec<f64> = (0..15).map(|i| f64::from(i) * 0.1 - 0.5).collect();
+    let mut x = [0.0; 7];
+    let (result, allocations) = counted(|| start.predict(&p, &mut x));
+    result.expect("a prediction");
+    assert_eq!(allocations, 0);
+    // The quaternion comes out normalized.
+    assert!((x[..4].iter().map(|v| v * v).sum::<f64>() - 1.0).abs() < 1e-12, "{x:?}");
 }

@@ -99,6 +99,9 @@ pub fn normalize_quaternions(layout: &Layout, x: &mut [f64]) -> bool {
     x.iter().all(|v| v.is_finite())
 }
 
+/// Network input numbers (rows times width) a [`LearnedStart`] keeps on the stack (8 KiB).
+pub const STACK_INPUT: usize = 2048;
+
 /// A learned start for a declared problem whose pipeline data is its parameter vector, reading
 /// it through input rows `R`.
 #[derive(Debug, Clone)]
@@ -142,14 +145,22 @@ impl<R: InputRows> LearnedStart<R> {
         &self.rows
     }
 
-    /// The predicted unknowns for parameters `p`, quaternions normalized.
+    /// The predicted unknowns for parameters `p`, quaternions normalized. Without heap
+    /// allocation for inputs of up to [`STACK_INPUT`] numbers.
     pub fn predict(&self, p: &[f64], x: &mut [f64]) -> Result<(), RegressorError> {
         let (count, width) = self.rows.shape();
-        let mut rows = vec![0.0f32; count * width];
-        if !self.rows.write(p, &mut rows) || !rows.iter().all(|v| v.is_finite()) {
+        let len = count * width;
+        let (mut stack, mut heap) = ([0.0f32; STACK_INPUT], Vec::new());
+        let rows: &mut [f32] = if len <= STACK_INPUT {
+            &mut stack[..len]
+        } else {
+            heap.resize(len, 0.0);
+            &mut heap
+        };
+        if !self.rows.write(p, rows) || !rows.iter().all(|v| v.is_finite()) {
             return Err(RegressorError::NoInputRows);
         }
-        self.network.forward(&rows, x)?;
+        self.network.forward(rows, x)?;
         if normalize_quaternions(&self.layout, x) {
             Ok(())
         } else {

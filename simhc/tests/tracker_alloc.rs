@@ -11,22 +11,22 @@ use simhc::homotopy::{random_gamma, to_complex, FixedSystem, ParameterHomotopy, 
 use simhc::tracker::{newton, track, NewtonOptions, TrackError, Tracker, TrackerOptions};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use tracker_support::*;
 
 /// Counts allocations made on threads that armed it; forwards everything to `System`.
 struct Counting;
 
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
 thread_local! {
-    // `const` initialisation: no lazy registration, so reading it never allocates.
+    // `const` initialisation: no lazy registration, so reading them never allocates. Both are
+    // per thread: the tests of this file run in parallel, and one's armed allocations must not
+    // count in another's.
     static ARMED: Cell<bool> = const { Cell::new(false) };
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
 }
 
 fn note_allocation() {
     if ARMED.try_with(Cell::get).unwrap_or(false) {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        let _ = ALLOCATIONS.try_with(|n| n.set(n.get() + 1));
     }
 }
 
@@ -59,11 +59,11 @@ static GLOBAL: Counting = Counting;
 
 /// Runs `f` with the counter armed on this thread; returns its result and the allocations.
 fn counted<R>(f: impl FnOnce() -> R) -> (R, usize) {
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = ALLOCATIONS.with(Cell::get);
     ARMED.with(|a| a.set(true));
     let r = f();
     ARMED.with(|a| a.set(false));
-    (r, ALLOCATIONS.load(Ordering::SeqCst) - before)
+    (r, ALLOCATIONS.with(Cell::get) - before)
 }
 
 #[test]

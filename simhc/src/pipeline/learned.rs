@@ -157,9 +157,10 @@ impl<R: InputRows> LearnedStart<R> {
             heap.resize(len, 0.0);
             &mut heap
         };
-        if !self.rows.write(p, rows) || !rows.iter().all(|v| v.is_finite()) {
+        if !self.rows.write(p, rows) {
             return Err(RegressorError::NoInputRows);
         }
+        // `forward` rejects non-finite rows itself (`RegressorError::NonFinite`).
         self.network.forward(rows, x)?;
         if normalize_quaternions(&self.layout, x) {
             Ok(())

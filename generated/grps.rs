@@ -1698,6 +1698,15 @@ pub mod grps {
             globals: &[],
             rows: 7,
             per_row: 12,
+            equations_per_row: 1,
+            parameter_free: &[7],
+            norms: &[
+                ::simhc::FieldNorm {
+                    field: 0,
+                    equation: 7,
+                    norm: 1.0,
+                },
+            ],
         };
     }
     #[allow(clippy::all, unused_variables)]
@@ -10050,6 +10059,15 @@ pub mod grps {
             globals: &[],
             rows: 8,
             per_row: 12,
+            equations_per_row: 1,
+            parameter_free: &[8],
+            norms: &[
+                ::simhc::FieldNorm {
+                    field: 0,
+                    equation: 8,
+                    norm: 1.0,
+                },
+            ],
         };
     }
     #[allow(clippy::all, unused_variables)]

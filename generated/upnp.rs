@@ -359,6 +359,15 @@ pub mod upnp {
             ],
             rows: 0,
             per_row: 0,
+            equations_per_row: 0,
+            parameter_free: &[4],
+            norms: &[
+                ::simhc::FieldNorm {
+                    field: 0,
+                    equation: 4,
+                    norm: 1.0,
+                },
+            ],
         };
     }
     #[allow(clippy::all, unused_variables)]

@@ -49,12 +49,26 @@ pub struct FieldLayout {
     pub offset: usize,
 }
 
+/// A parameter-free equation `a (v . v) - b = 0` over all scalars of unknown field `v`
+/// (`q.dot(q) - 1`, `t.dot(t) - 1`): it fixes `|v| = norm`, and a start must meet it by
+/// itself, since the online simulator moves parameters only.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FieldNorm {
+    /// Index of the field in [`Layout::unknowns`].
+    pub field: usize,
+    /// Index of the equation in `F` (rows first, then globals).
+    pub equation: usize,
+    /// The norm it fixes, `sqrt(b / a)`.
+    pub norm: f64,
+}
+
 /// The layout of one problem instance's vectors.
 ///
 /// Unknowns `x`: the fields in declaration order. Parameters `p`: `rows` blocks of
 /// `per_row` scalars (row `r`'s field `f` at `r * per_row + f.offset`), then the globals (field
-/// `g` at `rows * per_row + g.offset`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// `g` at `rows * per_row + g.offset`). Equations `F`: `rows` blocks of `equations_per_row`, then
+/// the global equations.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Layout {
     /// The unknowns.
     pub unknowns: &'static [FieldLayout],
@@ -66,6 +80,12 @@ pub struct Layout {
     pub rows: usize,
     /// Scalars per row.
     pub per_row: usize,
+    /// Equations per row.
+    pub equations_per_row: usize,
+    /// The equations in which no parameter occurs (indices into `F`), such as `q.dot(q) - 1`.
+    pub parameter_free: &'static [usize],
+    /// Those of them that fix the norm of an unknown field.
+    pub norms: &'static [FieldNorm],
 }
 
 impl Layout {
@@ -92,6 +112,37 @@ impl Layout {
     /// The global parameters (`None` for a short `p`).
     pub fn global_params<'p>(&self, p: &'p [f64]) -> Option<&'p [f64]> {
         p.get(self.rows * self.per_row..self.param_len())
+    }
+
+    /// Where equation `k` of `F` comes from, for messages: `"row 3, equation 0"` or `"global
+    /// equation 1"` (counted from 0).
+    pub fn equation_name(&self, k: usize) -> String {
+        let in_rows = self.rows * self.equations_per_row;
+        if k < in_rows {
+            format!("row {}, equation {}", k / self.equations_per_row, k % self.equations_per_row)
+        } else {
+            format!("global equation {}", k - in_rows)
+        }
+    }
+
+    /// Puts every unknown field whose norm an equation fixes ([`Layout::norms`]) on its sphere,
+    /// and every quaternion on the unit sphere (`rotation(q)` reads a unit `q`); `false` when
+    /// one of them is zero or `x` is not finite.
+    pub fn normalize_unknowns(&self, x: &mut [f64]) -> bool {
+        let quats = self.unknowns.iter().filter(|f| f.kind == FieldKind::Quat).map(|f| (f.offset, 4, 1.0));
+        let fixed = self.norms.iter().map(|n| {
+            let f = &self.unknowns[n.field];
+            (f.offset, f.kind.len(), n.norm)
+        });
+        for (offset, len, norm) in quats.chain(fixed) {
+            let Some(v) = x.get_mut(offset..offset + len) else { return false };
+            let have = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if !(have > 0.0 && have.is_finite()) {
+                return false;
+            }
+            v.iter_mut().for_each(|a| *a *= norm / have);
+        }
+        x.iter().all(|v| v.is_finite())
     }
 
     /// This instance's parameters taken from those of a larger instance of the same problem

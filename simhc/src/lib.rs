@@ -20,13 +20,13 @@ pub mod scalar;
 pub mod simulator;
 pub mod tracker;
 
-pub use layout::{FieldKind, FieldLayout, Layout, ProblemLayout};
+pub use layout::{FieldKind, FieldLayout, FieldNorm, Layout, ProblemLayout};
 pub use problem::{
     CoefficientForm, NoLanes, ParamDerivative, ParamLanes, ParamRowLayout, PathLanes, Problem, ProblemInfo, RowLanes, RowLayout,
 };
 pub use scalar::Scalar;
 pub use simhc_macros::simhc_problem;
-pub use simulator::{MinNormSimulator, OnlineSimulator, SimulatorError};
+pub use simulator::{onto_parameter_free, MinNormSimulator, OnlineSimulator, SimulatorError};
 
 /// Re-exports used by generated code, so user crates need no direct dependency on them.
 #[doc(hidden)]

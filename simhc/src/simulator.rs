@@ -20,11 +20,22 @@ pub enum SimulatorError {
     /// The linear system of the correction was singular (degenerate geometry).
     #[error("singular system in the simulator (degenerate input)")]
     Singular,
-    /// After the iteration budget the start problem is still inconsistent; this also happens when
-    /// an equation that does not depend on the parameters (such as `q.q - 1`) fails at `x0`.
-    #[error("simulated start problem not consistent: residual {residual:e}")]
+    /// After the iteration budget the start problem is still inconsistent.
+    #[error("simulated start problem not consistent: equation {equation} has residual {residual:e}")]
     NotConsistent {
         /// Max-norm of `F(x0; p0)` at the end.
+        residual: f64,
+        /// The equation of that residual (index into `F`; [`crate::Layout::equation_name`]).
+        equation: usize,
+    },
+    /// An equation in which no parameter occurs (`t.dot(t) - 1`) does not hold at the start and
+    /// could not be made to: no simulator can change it, so the start must meet it
+    /// ([`onto_parameter_free`]).
+    #[error("equation {equation} has no parameters and the start misses it by {residual:e}; the start must satisfy it (a zero vector where a unit one is needed?)")]
+    ParameterFree {
+        /// The equation (index into `F`; [`crate::Layout::equation_name`]).
+        equation: usize,
+        /// Its residual at the start.
         residual: f64,
     },
 }
@@ -44,7 +55,8 @@ pub trait OnlineSimulator<const NX: usize, const NF: usize, const NP: usize> {
 /// `Jp Jp^T` singular or, as `F -> 0`, ill-conditioned, and a Cholesky factorization of it fails.
 /// Equations whose `dF/dp` row vanishes (they do not involve parameters) or depends on the
 /// others cannot be corrected independently; they are left out of the step and must hold at the
-/// end, otherwise the result is [`SimulatorError::NotConsistent`].
+/// end, otherwise the result is [`SimulatorError::NotConsistent`] naming the worst equation.
+/// The pipeline puts a start on the parameter-free equations first ([`onto_parameter_free`]).
 #[derive(Debug, Clone, Copy)]
 pub struct MinNormSimulator<P> {
     /// Gauss-Newton iterations at most (the correction is exact in one step when `F` is affine in
@@ -99,13 +111,82 @@ impl<P> MinNormSimulator<P> {
             }
         }
         P::residual(x0, &p0, &mut f);
-        let residual = f.amax();
+        let equation = f.iamax();
+        let residual = f[equation].abs();
         if residual <= tol {
             Ok(p0)
         } else {
-            Err(SimulatorError::NotConsistent { residual })
+            Err(SimulatorError::NotConsistent { residual, equation })
         }
     }
+}
+
+/// `x0` moved onto the equations without parameters ([`crate::Layout::parameter_free`]), which
+/// no online simulator can make hold: first every field whose norm such an equation fixes (and
+/// every quaternion) is put on its sphere ([`crate::Layout::normalize_unknowns`]), which
+/// settles `q.q - 1` and `t.t - 1` exactly; any other parameter-free equation still above
+/// `tolerance` then gets minimum-norm Gauss-Newton steps on those equations alone, at most
+/// `max_iterations`. Returns `x0` unchanged when the problem has no such equation.
+/// [`SimulatorError::ParameterFree`] names the equation that could not be met. No allocation.
+pub fn onto_parameter_free<P, const NX: usize, const NF: usize, const NP: usize>(
+    x0: &SVector<f64, NX>,
+    tolerance: f64,
+    max_iterations: usize,
+) -> Result<SVector<f64, NX>, SimulatorError>
+where
+    P: crate::Problem<NX, NF, NP> + crate::ProblemLayout,
+{
+    let layout = P::LAYOUT;
+    if layout.parameter_free.is_empty() {
+        return Ok(*x0);
+    }
+    if !x0.iter().all(|v| v.is_finite()) {
+        return Err(SimulatorError::NonFinite);
+    }
+    let mut x = *x0;
+    if !layout.normalize_unknowns(x.as_mut_slice()) {
+        // A zero field cannot be put on its sphere: name the first norm equation it misses.
+        let missed = layout.norms.iter().find(|n| {
+            let f = &layout.unknowns[n.field];
+            x0.as_slice()[f.offset..f.offset + f.kind.len()].iter().all(|v| *v == 0.0)
+        });
+        let equation = missed.map_or(layout.parameter_free[0], |n| n.equation);
+        return Err(SimulatorError::ParameterFree { equation, residual: missed.map_or(f64::NAN, |n| n.norm * n.norm) });
+    }
+    // Norm equations hold after normalization up to rounding; other parameter-free equations
+    // need the residual. `p` is irrelevant to them: zeros.
+    if layout.parameter_free.iter().all(|e| layout.norms.iter().any(|n| n.equation == *e)) {
+        return Ok(x);
+    }
+    let p = SVector::<f64, NP>::zeros();
+    let (mut f, mut j) = (SVector::<f64, NF>::zeros(), SMatrix::<f64, NF, NX>::zeros());
+    let mut worst = (0, f64::INFINITY);
+    for iteration in 0..=max_iterations {
+        P::residual_jacobian(&x, &p, &mut f, &mut j);
+        // Only the parameter-free equations: zero the others' rows.
+        let mut keep = SVector::<f64, NF>::zeros();
+        layout.parameter_free.iter().for_each(|&e| keep[e] = 1.0);
+        f.component_mul_assign(&keep);
+        for (r, k) in keep.iter().enumerate() {
+            if *k == 0.0 {
+                j.row_mut(r).fill(0.0);
+            }
+        }
+        let e = f.iamax();
+        worst = (e, f[e].abs());
+        if worst.1 <= tolerance * (1.0 + x.amax()) {
+            return Ok(x);
+        }
+        if iteration == max_iterations {
+            break;
+        }
+        let Some(step) = min_norm_step(&j, &f, 1e-12) else { break };
+        x -= step;
+        if !x.iter().all(|v| v.is_finite()) {
+            return Err(SimulatorError::NonFinite);
+        }
+    }
+    Err(SimulatorError::ParameterFree { equation: worst.0, residual: worst.1 })
 }
 
 /// The minimum-norm solution `d` of `J d = f` over a maximal set of independent equations:

@@ -169,7 +169,8 @@ fn a_learned_start_predicts_without_allocating() {
     const UNKNOWNS: &[FieldLayout] =
         &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "t", kind: FieldKind::Vector(3), offset: 4 }];
     const ROW: &[FieldLayout] = &[FieldLayout { name: "f", kind: FieldKind::Vector(3), offset: 0 }];
-    let layout = Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 5, per_row: 3 };
+    let layout =
+        Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 5, per_row: 3, equations_per_row: 1, parameter_free: &[], norms: &[] };
     let point = DenseLayer::new(3, 8, (0..24).map(|i| (i as f32 * 0.37).sin()).collect(), vec![0.1; 8]).unwrap();
     let head = DenseLayer::new(8, 7, (0..56).map(|i| (i as f32 * 0.11).cos()).collect(), vec![0.2; 7]).unwrap();
     let start = LearnedStart::new(FoldedNetwork::new(3, vec![point], vec![head], false).unwrap(), layout).unwrap();

@@ -12,6 +12,7 @@
 //! The engine is deterministic: the same declaration gives byte-identical output.
 
 pub mod coefficients;
+pub mod constraints;
 pub mod ctxt;
 pub mod dag;
 pub mod decl;

@@ -562,7 +562,7 @@ impl GrpsSolver {
         run: impl FnOnce(GrpsPipeline<'_, P, N, NF, NP, NC>) -> R,
     ) -> R
     where
-        P: CoefficientForm<8, NF, NP, NC> + ParamDerivative<8, NF, NP>,
+        P: CoefficientForm<8, NF, NP, NC> + ParamDerivative<8, NF, NP> + simhc::ProblemLayout,
     {
         let o = &self.options;
         let providers: Vec<Hypothesis> = hypotheses.kinds.iter().map(|&kind| Hypothesis { set: hypotheses, kind }).collect();

@@ -16,7 +16,7 @@ use crate::builtin::MonodromyArgs;
 use clap::{ArgMatches, Args, Command, FromArgMatches};
 use nalgebra::SVector;
 use rand::seq::SliceRandom;
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use simhc::all_roots::{solve_all_fast, AllRootsOptions, StartSystem};
@@ -298,7 +298,8 @@ impl<Q: ProblemLayout, const NP: usize, const ND: usize> TargetParameters<SVecto
 }
 
 /// A random start for any layout: a uniformly random unit quaternion for each quaternion
-/// unknown, zero for the others (the paper's "Rand" rows).
+/// unknown, a random direction for each field whose norm an equation fixes, zero for the others
+/// (the paper's "Rand" rows).
 pub struct RandomStart {
     layout: Layout,
     rng: RefCell<ChaCha8Rng>,
@@ -321,6 +322,17 @@ impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for RandomStart {
         for f in self.layout.unknowns.iter().filter(|f| f.kind == FieldKind::Quat) {
             let q = simhc_problems::metrics::random_unit_quaternion(&mut *rng);
             x.as_mut_slice()[f.offset..f.offset + 4].copy_from_slice(&q);
+        }
+        // A field whose norm an equation fixes (`t.dot(t) - 1`): a random direction on its
+        // sphere, since zero cannot be normalized.
+        for n in self.layout.norms {
+            let f = &self.layout.unknowns[n.field];
+            if f.kind != FieldKind::Quat {
+                x.as_mut_slice()[f.offset..f.offset + f.kind.len()].iter_mut().for_each(|v| *v = rng.random_range(-1.0..1.0));
+            }
+        }
+        if !self.layout.normalize_unknowns(x.as_mut_slice()) {
+            return Err(StartError { provider: "random", reason: "a random field of zero norm".into() });
         }
         Ok(x)
     }
@@ -490,6 +502,7 @@ fn bench_json(rows: &[BenchRow]) -> serde_json::Value {
                 serde_json::json!({
                     "method": r.name, "trials": r.trials, "success_pct": r.success_pct(), "solved": r.solved, "wrong": r.wrong,
                     "flagged": r.flagged, "failed": r.failed, "median_errors": errors, "median_us": r.median_us, "mean_us": r.mean_us,
+                    "failures": {"input": r.failures.input, "start": r.failures.start, "simulator": r.failures.simulator, "tracker": r.failures.tracker},
                 })
             })
             .collect(),
@@ -656,7 +669,7 @@ where
         }
         print!("{}", table(&rows));
         println!(
-            "success: validated (rows after Pred Initial) and {}; errors: medians over returned estimates; times: microseconds per solve",
+            "success: validated (rows after Pred Initial) and {}; errors: medians over returned estimates; times: microseconds per solve; flag: failed validation; fail: why, by the last attempt's error",
             S::ERRORS.join(", ")
         );
         if let [.., shipped, all] = rows.as_slice() {

@@ -293,7 +293,7 @@ impl<R: InputRows> FeatureHook for LayoutFeatures<'_, R> {
         check("parameters", p.len(), layout.param_len())?;
         check("unknowns", x.len(), layout.unknown_len())?;
         target.copy_from_slice(x);
-        if p.iter().any(|v| !v.is_finite()) || !simhc::pipeline::learned::normalize_quaternions(layout, target) {
+        if p.iter().any(|v| !v.is_finite()) || !layout.normalize_unknowns(target) {
             return Err(LearnedStartError::NonFinite { index });
         }
         // A scene whose rows cannot be made (degenerate for the problem's own rows) is redrawn.
@@ -456,7 +456,16 @@ mod tests {
         const UNKNOWNS: &[FieldLayout] =
             &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "s", kind: FieldKind::Scalar, offset: 4 }];
         const ROW: &[FieldLayout] = &[FieldLayout { name: "f", kind: FieldKind::Vector(3), offset: 0 }];
-        let layout = Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 2, per_row: 3 };
+        let layout = Layout {
+            unknowns: UNKNOWNS,
+            row: ROW,
+            globals: &[],
+            rows: 2,
+            per_row: 3,
+            equations_per_row: 1,
+            parameter_free: &[],
+            norms: &[],
+        };
         let config = LearnedStartConfig { samples: 4, ..LearnedStartConfig::default() };
         let good = |_: &mut ChaCha8Rng| (vec![0.1; 6], vec![1.0, 0.0, 0.0, 0.0, 2.0]);
         let mut calls = 0;
@@ -519,7 +528,8 @@ mod tests {
             }
         }
         const ONE: &[FieldLayout] = &[FieldLayout { name: "a", kind: FieldKind::Scalar, offset: 0 }];
-        let layout = Layout { unknowns: ONE, row: ONE, globals: &[], rows: 1, per_row: 1 };
+        let layout =
+            Layout { unknowns: ONE, row: ONE, globals: &[], rows: 1, per_row: 1, equations_per_row: 1, parameter_free: &[], norms: &[] };
         let hook = LayoutFeatures::with_rows(&layout, Positive);
         assert_eq!(hook.input_shape(), (1, 2));
         let mut draws = 0;

@@ -3,7 +3,7 @@
 //! start, the full pipeline), and counts what came back. Timing is wall time per solve, single
 //! thread; report ratios within one run.
 
-use super::{PipelineError, Solved};
+use super::{AttemptError, PipelineError, Solved};
 use nalgebra::SVector;
 use std::fmt::Write as _;
 use std::time::Instant;
@@ -24,6 +24,9 @@ pub struct BenchRow {
     pub flagged: usize,
     /// No end point, or an input error.
     pub failed: usize,
+    /// Why the `failed` trials failed (the last attempt's error); the `flagged` ones failed
+    /// validation.
+    pub failures: Failures,
     /// Median solve time, microseconds.
     pub median_us: f64,
     /// Mean solve time, microseconds.
@@ -31,6 +34,42 @@ pub struct BenchRow {
     /// Median of each error of the [`Score`] over the returned estimates (validated or not,
     /// flagged excluded), with its name.
     pub median_errors: Vec<(&'static str, f64)>,
+}
+
+/// What stopped the trials that produced no end point, by the last attempt's error.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Failures {
+    /// The data was not a problem instance.
+    pub input: usize,
+    /// No start (or no attempt ran).
+    pub start: usize,
+    /// The online simulator failed, before any tracking.
+    pub simulator: usize,
+    /// The path failed.
+    pub tracker: usize,
+}
+
+impl Failures {
+    fn count<E: std::error::Error, C: std::fmt::Debug, const NX: usize>(&mut self, e: &PipelineError<E, C, NX>) {
+        match e {
+            PipelineError::Input(_) => self.input += 1,
+            PipelineError::NoEndPoint { last: Some(AttemptError::Simulator(_)), .. } => self.simulator += 1,
+            PipelineError::NoEndPoint { last: Some(AttemptError::Tracker(_)), .. } => self.tracker += 1,
+            PipelineError::NoEndPoint { .. } => self.start += 1,
+            PipelineError::NotValidated(_) => {}
+        }
+    }
+
+    /// `"sim 3, track 1"`: the kinds that occurred, `"-"` for none.
+    pub fn summary(&self) -> String {
+        let kinds = [("input", self.input), ("start", self.start), ("sim", self.simulator), ("track", self.tracker)];
+        let parts: Vec<String> = kinds.iter().filter(|(_, n)| *n > 0).map(|(k, n)| format!("{k} {n}")).collect();
+        if parts.is_empty() {
+            "-".to_string()
+        } else {
+            parts.join(", ")
+        }
+    }
 }
 
 /// How a bench scores an estimate against the truth: named errors (for the table) and the
@@ -69,7 +108,7 @@ enum Outcome<const NX: usize> {
     /// An estimate, scored against the truth.
     Returned(SVector<f64, NX>),
     Flagged,
-    Failed,
+    Failed(Failures),
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -93,6 +132,7 @@ fn tally<D, R, const NX: usize>(
         wrong: 0,
         flagged: 0,
         failed: 0,
+        failures: Failures::default(),
         median_us: f64::NAN,
         mean_us: f64::NAN,
         median_errors: Vec::new(),
@@ -115,7 +155,13 @@ fn tally<D, R, const NX: usize>(
                 }
             }
             Outcome::Flagged => row.flagged += 1,
-            Outcome::Failed => row.failed += 1,
+            Outcome::Failed(why) => {
+                row.failed += 1;
+                row.failures.input += why.input;
+                row.failures.start += why.start;
+                row.failures.simulator += why.simulator;
+                row.failures.tracker += why.tracker;
+            }
         }
     }
     if !micros.is_empty() {
@@ -137,7 +183,11 @@ where
     tally(name, trials, score, solve, |result| match result {
         Ok(s) => Outcome::Returned(s.x),
         Err(PipelineError::NotValidated(_)) => Outcome::Flagged,
-        Err(_) => Outcome::Failed,
+        Err(e) => {
+            let mut why = Failures::default();
+            why.count(&e);
+            Outcome::Failed(why)
+        }
     })
 }
 
@@ -151,24 +201,25 @@ pub fn bench_estimate_row<D, const NX: usize>(
 ) -> BenchRow {
     tally(name, trials, score, estimate, |x| match x {
         Some(x) => Outcome::Returned(x),
-        None => Outcome::Failed,
+        None => Outcome::Failed(Failures { start: 1, ..Failures::default() }),
     })
 }
 
-/// The rows as a text table (median errors after the counts, when the score names them).
+/// The rows as a text table (median errors after the counts, when the score names them; last,
+/// why the failed trials failed: [`Failures::summary`]).
 pub fn table(rows: &[BenchRow]) -> String {
     let names: Vec<&str> = rows.first().map(|r| r.median_errors.iter().map(|(n, _)| *n).collect()).unwrap_or_default();
     let mut out = format!("{:<36} {:>7} {:>6} {:>6} {:>6}", "method", "succ%", "wrong", "flag", "fail");
     for n in &names {
         let _ = write!(out, " {:>10}", format!("med {n}"));
     }
-    let _ = writeln!(out, " {:>9} {:>9}", "t med us", "t mean us");
+    let _ = writeln!(out, " {:>9} {:>9}  fail: why", "t med us", "t mean us");
     for r in rows {
         let _ = write!(out, "{:<36} {:>7.1} {:>6} {:>6} {:>6}", r.name, r.success_pct(), r.wrong, r.flagged, r.failed);
         for (_, e) in &r.median_errors {
             let _ = write!(out, " {e:>10.3e}");
         }
-        let _ = writeln!(out, " {:>9.1} {:>9.1}", r.median_us, r.mean_us);
+        let _ = writeln!(out, " {:>9.1} {:>9.1}  {}", r.median_us, r.mean_us, r.failures.summary());
     }
     out
 }
@@ -202,12 +253,34 @@ mod tests {
             _ => Err(PipelineError::Input(Bad)),
         });
         assert_eq!((row.solved, row.wrong, row.flagged, row.failed, row.trials), (1, 1, 1, 1, 4));
+        assert_eq!(row.failures, Failures { input: 1, ..Failures::default() });
         assert!(row.median_us >= 0.0 && row.mean_us >= 0.0);
         assert_eq!(row.success_pct(), 25.0);
         let est = bench_estimate_row("e", &trials, &|x: &SVector<f64, 1>, t: &SVector<f64, 1>| (x[0] - t[0]).abs() < 1e-9, |k: &u8| {
             (*k < 3).then(|| SVector::from([f64::from(*k)]))
         });
         assert_eq!((est.solved, est.wrong, est.failed), (1, 2, 1));
+        assert_eq!(est.failures.summary(), "start 1");
         assert!(table(&[row, est]).lines().count() == 3);
+    }
+
+    #[test]
+    fn a_failure_is_counted_by_the_last_attempt_error() {
+        use crate::tracker::TrackError;
+        use crate::SimulatorError;
+        let trials: Vec<(u8, SVector<f64, 1>)> = (0..5).map(|k| (k, SVector::from([1.0]))).collect();
+        let row = bench_row("r", &trials, &|_: &SVector<f64, 1>, _: &SVector<f64, 1>| true, |k: &u8| {
+            let last = match k {
+                0 | 1 => Some(AttemptError::Simulator(SimulatorError::ParameterFree { equation: 6, residual: 1.0 })),
+                2 => Some(AttemptError::Tracker(TrackError::MaxSteps { t: 0.5 })),
+                3 => None,
+                _ => return Err(PipelineError::<Bad, (), 1>::Input(Bad)),
+            };
+            Err(PipelineError::NoEndPoint { attempts: 1, last })
+        });
+        assert_eq!(row.failed, 5);
+        assert_eq!(row.failures, Failures { input: 1, start: 1, simulator: 2, tracker: 1 });
+        assert_eq!(row.failures.summary(), "input 1, start 1, sim 2, track 1");
+        assert!(table(&[row]).contains("sim 2"));
     }
 }

@@ -6,7 +6,7 @@ use super::{
     StartSimulator, TargetParameters, Validator, Verdict,
 };
 use crate::tracker::{NewtonOptions, TrackStats, TrackerOptions};
-use crate::CoefficientForm;
+use crate::{CoefficientForm, ProblemLayout};
 use nalgebra::SVector;
 use std::borrow::Borrow;
 use std::marker::PhantomData;
@@ -65,7 +65,7 @@ type Outcome<T, V, D, const NX: usize, const NP: usize> = Result<
 
 impl<'a, P, D, T, S, V, const NX: usize, const NF: usize, const NP: usize, const NC: usize> Pipeline<'a, P, D, T, S, V, NX, NF, NP, NC>
 where
-    P: CoefficientForm<NX, NF, NP, NC>,
+    P: CoefficientForm<NX, NF, NP, NC> + ProblemLayout,
     D: ?Sized,
     T: TargetParameters<D, NP>,
     S: StartSimulator<D, NX, NF, NP> + ?Sized,

@@ -8,11 +8,12 @@
 //! parameters]` ([`layout_row_width`] numbers); a problem without rows has one row of its
 //! globals. A problem whose raw parameters make poor features (ratios, distances, invariants)
 //! implements [`InputRows`] itself. Outputs: the unknown vector in layout order; a
-//! [`FieldKind::Quat`] unknown is normalized here (its loss was sign-invariant), the others
-//! come out in their own units.
+//! [`crate::FieldKind::Quat`] unknown (its loss was sign-invariant) and a field whose norm a
+//! parameter-free equation fixes (`t.dot(t) - 1`) are normalized here, the others come out in
+//! their own units.
 
 use super::{StartError, StartProvider};
-use crate::layout::{FieldKind, Layout};
+use crate::layout::Layout;
 use crate::regressor::{FoldedNetwork, RegressorError};
 use nalgebra::SVector;
 
@@ -86,19 +87,6 @@ pub fn layout_rows(layout: &Layout, p: &[f64], out: &mut [f32]) -> bool {
     out.iter().all(|v| v.is_finite())
 }
 
-/// Normalizes every quaternion unknown of `x` in place; `false` if one is zero or not finite.
-pub fn normalize_quaternions(layout: &Layout, x: &mut [f64]) -> bool {
-    for f in layout.unknowns.iter().filter(|f| f.kind == FieldKind::Quat) {
-        let q = &mut x[f.offset..f.offset + 4];
-        let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
-        if !(n > 0.0 && n.is_finite()) {
-            return false;
-        }
-        q.iter_mut().for_each(|v| *v /= n);
-    }
-    x.iter().all(|v| v.is_finite())
-}
-
 /// Network input numbers (rows times width) a [`LearnedStart`] keeps on the stack (8 KiB).
 pub const STACK_INPUT: usize = 2048;
 
@@ -145,7 +133,8 @@ impl<R: InputRows> LearnedStart<R> {
         &self.rows
     }
 
-    /// The predicted unknowns for parameters `p`, quaternions normalized. Without heap
+    /// The predicted unknowns for parameters `p`, quaternions and the fields whose norm an
+    /// equation fixes put on their spheres ([`Layout::normalize_unknowns`]). Without heap
     /// allocation for inputs of up to [`STACK_INPUT`] numbers.
     pub fn predict(&self, p: &[f64], x: &mut [f64]) -> Result<(), RegressorError> {
         let (count, width) = self.rows.shape();
@@ -162,7 +151,7 @@ impl<R: InputRows> LearnedStart<R> {
         }
         // `forward` rejects non-finite rows itself (`RegressorError::NonFinite`).
         self.network.forward(rows, x)?;
-        if normalize_quaternions(&self.layout, x) {
+        if self.layout.normalize_unknowns(x) {
             Ok(())
         } else {
             Err(RegressorError::NonFinite)

@@ -6,12 +6,20 @@
 use super::{AttemptError, PipelineOptions, StageTimes, StartSimulator};
 use crate::homotopy::CoefficientLine;
 use crate::tracker::{solve_newton, track, NewtonOptions, TrackError, TrackResult, TrackStats};
-use crate::CoefficientForm;
+use crate::{onto_parameter_free, CoefficientForm, ProblemLayout};
 use nalgebra::SVector;
 use std::time::Instant;
 
+/// A start meets the parameter-free equations when their residual is at most this (relative to
+/// `1 + max |x|`); the minimum-norm simulator asks `1e-12` of the others.
+const PARAMETER_FREE_TOLERANCE: f64 = 1e-12;
+/// Gauss-Newton steps on the parameter-free equations that are not norms (norms are exact).
+const PARAMETER_FREE_ITERATIONS: usize = 8;
+
 /// Tracks `x0` from the simulated start problem to the target parameters `p`; adds the
-/// simulator's and the tracker's time to `times`. With [`PipelineOptions::polish`], an end point
+/// simulator's and the tracker's time to `times`. `x0` is first put on the equations without
+/// parameters ([`onto_parameter_free`]: `q.q - 1`, `t.t - 1`), which no simulator can make
+/// hold; the path starts from that point. With [`PipelineOptions::polish`], an end point
 /// that a tracker without `require_final_convergence` returned short of its final tolerance is
 /// polished by [`gauss_newton`] with `options.newton` (on noisy overdetermined systems
 /// Gauss-Newton converges only linearly at the least-squares point); validation decides.
@@ -24,17 +32,18 @@ pub fn simulator_hc<P, D, S, const NX: usize, const NF: usize, const NP: usize, 
     times: &mut StageTimes,
 ) -> Result<(SVector<f64, NX>, TrackStats), AttemptError>
 where
-    P: CoefficientForm<NX, NF, NP, NC>,
+    P: CoefficientForm<NX, NF, NP, NC> + ProblemLayout,
     D: ?Sized,
     S: StartSimulator<D, NX, NF, NP> + ?Sized,
 {
     let ts = Instant::now();
-    let p0 = simulator.simulate(data, x0, p);
+    let simulated = onto_parameter_free::<P, NX, NF, NP>(x0, PARAMETER_FREE_TOLERANCE, PARAMETER_FREE_ITERATIONS)
+        .and_then(|x0| simulator.simulate(data, &x0, p).map(|p0| (x0, p0)));
     times.simulator += ts.elapsed();
-    let p0 = p0?;
+    let (x0, p0) = simulated?;
     let tt = Instant::now();
     let h = CoefficientLine::<P, f64, NP, NC>::new::<NX, NF>(&p0, p);
-    let result = track(&h, x0, &options.tracker).and_then(|r| polish::<P, NX, NF, NP>(r, p, options));
+    let result = track(&h, &x0, &options.tracker).and_then(|r| polish::<P, NX, NF, NP>(r, p, options));
     times.tracking += tt.elapsed();
     Ok(result?)
 }

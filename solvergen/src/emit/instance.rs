@@ -127,6 +127,12 @@ pub(super) fn instance(decl: &Declaration, lowered: &Lowered, expanded: &Expande
     let layout_unknowns = field_layouts(&decl.unknowns);
     let layout_row = field_layouts(&decl.row_fields);
     let layout_globals = field_layouts(&decl.globals);
+    let parameter_free = crate::constraints::parameter_free(inst).into_iter().map(n);
+    let norms = crate::constraints::norms(decl, inst).into_iter().map(|crate::constraints::FieldNorm { field, equation, norm }| {
+        let (field, equation, norm) = (n(field), n(equation), Literal::f64_unsuffixed(norm));
+        quote!(::simhc::FieldNorm { field: #field, equation: #equation, norm: #norm })
+    });
+    let eqs_per_row = n(inst.eqs_per_row);
     let tokens = quote! {
         #[doc = #doc]
         #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -170,6 +176,9 @@ pub(super) fn instance(decl: &Declaration, lowered: &Lowered, expanded: &Expande
                 globals: &[#(#layout_globals),*],
                 rows: #n_rows,
                 per_row: #row_len,
+                equations_per_row: #eqs_per_row,
+                parameter_free: &[#(#parameter_free),*],
+                norms: &[#(#norms),*],
             };
         }
 

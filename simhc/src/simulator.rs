@@ -41,6 +41,11 @@ pub enum SimulatorError {
 }
 
 /// Builds a start problem for a predicted solution.
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` has no online simulator with NX = {NX}, NF = {NF}, NP = {NP}",
+    label = "no `simhc::OnlineSimulator<{NX}, {NF}, {NP}>` for this instance",
+    note = "`#[simhc_problem]` implements it for every instance, with its own sizes (`Foo::NX`, `Foo::NF`, `Foo::NP`), unless declared with `simulator = custom`; then implement it yourself"
+)]
 pub trait OnlineSimulator<const NX: usize, const NF: usize, const NP: usize> {
     /// Returns `p0` with `F(x0; p0) = 0`, as close to `p` as the rule makes it.
     fn simulate(&self, x0: &SVector<f64, NX>, p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, SimulatorError>;

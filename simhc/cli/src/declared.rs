@@ -29,7 +29,7 @@ use simhc::pipeline::{
     StartError, StartProvider, TargetParameters, Validator,
 };
 use simhc::regressor::FoldedNetwork;
-use simhc::{CoefficientForm, MinNormSimulator, ParamDerivative, ProblemInfo, ProblemLayout};
+use simhc::{CoefficientForm, OnlineSimulator, ParamDerivative, ProblemInfo, ProblemLayout};
 use simhc_problems::start_systems::{run_monodromy, MonodromyConfig, MonodromyReport, StartSystemError, StartSystemFile};
 #[cfg(feature = "train")]
 use simhc_regressor::generic::{train_learned_start_with, LearnedStartConfig};
@@ -56,7 +56,9 @@ use std::path::{Path, PathBuf};
 )]
 pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>: 'static {
     /// The instance whose paths are tracked: the first rows of the data (`#[simhc_problem]`).
-    type Tracked: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP> + ProblemLayout;
+    /// Its own [`OnlineSimulator`] builds the start problems: the generated minimum-norm one,
+    /// or yours with `#[simhc_problem(simulator = custom)]`.
+    type Tracked: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP> + ProblemLayout + OnlineSimulator<NX, NF, NP> + Default;
     /// The instance of all the user's rows (its layout reads input files and feeds the learned
     /// start).
     type Data: ProblemLayout;
@@ -615,11 +617,8 @@ where
         }
         let learned = self.learned_start(&a.weights)?;
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
-        let (target, simulator, validator) = (
-            FirstRows::<S::Tracked>::new(S::Data::LAYOUT),
-            Generic(MinNormSimulator::<S::Tracked>::new()),
-            self.problem.validator(a.noise),
-        );
+        let (target, simulator, validator) =
+            (FirstRows::<S::Tracked>::new(S::Data::LAYOUT), Generic(S::Tracked::default()), self.problem.validator(a.noise));
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
         let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [&learned, &refined, &random];
         let has_refine = S::REFINES;
@@ -687,7 +686,7 @@ where
         let p = SVector::<f64, ND>::from_column_slice(&p);
         let learned = self.learned_start(&a.weights)?;
         let (target, simulator, validator) =
-            (FirstRows::<S::Tracked>::new(layout), Generic(MinNormSimulator::<S::Tracked>::new()), self.problem.validator(a.noise));
+            (FirstRows::<S::Tracked>::new(layout), Generic(S::Tracked::default()), self.problem.validator(a.noise));
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
         let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 2] = [&learned, &refined];
         let schedule = self.shipped_schedule();

@@ -170,3 +170,48 @@ fn solve_reads_a_file_and_says_where_bad_input_is() {
     assert!(!ok);
     assert!(err.contains("malformed JSON at line 1"), "{err}");
 }
+
+/// The compiled solver as a library value, as a user's program calls it: built once, then
+/// called on seeded scenes in random frames, one by one and as a batch across cores.
+#[test]
+fn the_library_solver_solves_seeded_scenes_in_random_frames() {
+    let seed = 31;
+    println!("seed {seed}");
+    let solver = simhc_cli::Solver::new(GenRelPose::new()).expect("shipped weights");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let scenes: Vec<(Params, Unknowns)> = (0..40)
+        .map(|k| {
+            let (p, x) = scene(&mut rng, 0.0);
+            if k % 2 == 1 {
+                move_frames(&mut rng, &p, &x)
+            } else {
+                (p, x)
+            }
+        })
+        .collect();
+    let (mut solved, mut wrong) = (0, 0);
+    for (p, x) in &scenes {
+        if let Ok(s) = solver.solve(p) {
+            let [e_r, e_t] = errors(&s.x, x);
+            if e_r < 2.0 && e_t < 5.0 {
+                solved += 1;
+            } else {
+                wrong += 1;
+            }
+        }
+    }
+    println!("solved {solved} of {}", scenes.len());
+    assert_eq!(wrong, 0, "a wrong answer came back unflagged");
+    assert!(solved >= 39, "{solved} of {}", scenes.len());
+    let data: Vec<Params> = scenes.iter().map(|(p, _)| *p).collect();
+    let batch = solver.solve_batch(&data);
+    assert_eq!(batch.iter().filter(|r| r.is_ok()).count(), solved, "the batch solves what one solve solves");
+
+    let mut bad = data[0];
+    bad[12 * 4 + 7] = f64::NAN;
+    let err = solver.solve(&bad).expect_err("NaN");
+    assert!(
+        matches!(err, simhc_cli::SolveError::Input(_)) && err.to_string().contains("row 4") && err.to_string().contains("`fp`"),
+        "{err}"
+    );
+}

@@ -13,6 +13,7 @@
 
 use crate::app::{progress_bar, Registration, Verb};
 use crate::builtin::MonodromyArgs;
+use crate::solver::{shipped_schedule, ProblemRows, SolveError, Solver};
 use clap::{ArgMatches, Args, Command, FromArgMatches};
 use nalgebra::SVector;
 use rand::seq::SliceRandom;
@@ -25,10 +26,9 @@ use simhc::monodromy::SignFlip;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
 use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::pipeline::{
-    Attempt, Canonicalize, Fallback, Generic, InputRows, LayoutRows, LearnedStart, Method, Pipeline, PipelineError, PipelineOptions,
-    StartError, StartProvider, TargetParameters, Validator,
+    Attempt, Canonicalize, Fallback, Generic, InputRows, Method, Pipeline, PipelineOptions, StartError, StartProvider, TargetParameters,
+    Validator,
 };
-use simhc::regressor::FoldedNetwork;
 use simhc::{CoefficientForm, OnlineSimulator, ParamDerivative, ProblemInfo, ProblemLayout};
 use simhc_problems::start_systems::{run_monodromy, MonodromyConfig, MonodromyReport, StartSystemError, StartSystemFile};
 #[cfg(feature = "train")]
@@ -36,6 +36,7 @@ use simhc_regressor::generic::{train_learned_start_with, LearnedStartConfig};
 use std::cell::RefCell;
 use std::marker::PhantomData;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// A declared problem with what its commands need.
 ///
@@ -149,7 +150,7 @@ pub struct CanonicalFrame<const NX: usize> {
 }
 
 /// A problem's [`DeclaredProblem::canonicalize`] as the pipeline's [`Canonicalize`].
-struct Canon<'a, S, const NF: usize, const NP: usize, const NC: usize>(&'a S);
+pub(crate) struct Canon<'a, S, const NF: usize, const NP: usize, const NC: usize>(pub(crate) &'a S);
 
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Canonicalize<SVector<f64, ND>, NX>
     for Canon<'_, S, NF, NP, NC>
@@ -251,7 +252,7 @@ where
     }
 }
 
-struct AllRootsFallback<'a, const NX: usize, const ND: usize>(&'a dyn AllRoots<NX, ND>);
+pub(crate) struct AllRootsFallback<'a, const NX: usize, const ND: usize>(pub(crate) &'a dyn AllRoots<NX, ND>);
 
 impl<const NX: usize, const NP: usize, const ND: usize> Fallback<SVector<f64, ND>, NX, NP> for AllRootsFallback<'_, NX, ND> {
     fn candidates(&self, data: &SVector<f64, ND>, _p: &SVector<f64, NP>) -> Vec<SVector<f64, NX>> {
@@ -341,9 +342,9 @@ impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for RandomStart {
 }
 
 /// The start of `inner`, refined by [`DeclaredProblem::refine`] (an error when that fails).
-struct Refined<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
-    inner: &'a dyn StartProvider<SVector<f64, ND>, NX>,
-    problem: &'a S,
+pub(crate) struct Refined<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+    pub(crate) inner: &'a dyn StartProvider<SVector<f64, ND>, NX>,
+    pub(crate) problem: &'a S,
 }
 
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
@@ -368,7 +369,7 @@ where
 /// A declared problem as a [`Registration`]: `train`, `bench`, `solve` and, with a square
 /// subsystem, `monodromy`.
 pub struct Declared<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
-    problem: S,
+    problem: Arc<S>,
 }
 
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Declared<S, NX, NF, NP, NC, ND>
@@ -377,7 +378,7 @@ where
 {
     /// Registers `problem`.
     pub fn new(problem: S) -> Self {
-        Self { problem }
+        Self { problem: Arc::new(problem) }
     }
 
     /// The problem.
@@ -519,40 +520,19 @@ where
         ProblemScore(&self.problem)
     }
 
-    /// The shipped attempts, over the start providers `[learned, learned refined on all rows,
-    /// ..]` that `bench` and `solve` both pass: with a refine hook, its least-squares point on
-    /// all rows as it is, then Gauss-Newton on the tracked rows from it (with noise the first
-    /// validates more often: the tracked rows' exact root carries their noise to the other
-    /// rows); without one, Gauss-Newton on the tracked rows from the learned start; last, one
-    /// Simulator HC path from the learned start (the last attempt); the fallback after them.
-    fn shipped_schedule(&self) -> Vec<Attempt> {
-        let simulator_hc = Attempt { provider: 0, method: Method::SimulatorHc };
-        if S::REFINES {
-            vec![Attempt { provider: 1, method: Method::Start }, Attempt { provider: 1, method: Method::GaussNewton }, simulator_hc]
-        } else {
-            vec![Attempt { provider: 0, method: Method::GaussNewton }, simulator_hc]
-        }
-    }
-
-    /// The learned start's input rows: the problem's, or the data layout's.
-    fn input_rows(&self) -> Box<dyn InputRows + '_> {
-        match self.problem.input_rows() {
-            Some(rows) => Box::new(rows),
-            None => Box::new(LayoutRows(S::Data::LAYOUT)),
-        }
-    }
-
-    fn learned_start(&self, weights: &Option<PathBuf>) -> Result<LearnedStart<Box<dyn InputRows + '_>>, String> {
-        let bytes: std::borrow::Cow<'_, [u8]> = match weights {
+    fn weights(&self, weights: &Option<PathBuf>) -> Result<std::borrow::Cow<'static, [u8]>, String> {
+        Ok(match weights {
             Some(path) => std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?.into(),
             None => self
                 .problem
                 .weights()
                 .ok_or_else(|| format!("{} has no shipped weights: pass --weights FILE (made by `train {}`)", S::NAME, S::NAME))?
                 .into(),
-        };
-        let network = FoldedNetwork::from_bytes(&bytes).map_err(|e| format!("weights: {e}"))?;
-        LearnedStart::with_rows(network, S::Data::LAYOUT, self.input_rows()).map_err(|e| format!("weights: {e}"))
+        })
+    }
+
+    fn solver(&self, weights: &Option<PathBuf>, noise: f64) -> Result<Solver<S, NX, NF, NP, NC, ND>, String> {
+        Solver::with_shared(self.problem.clone(), &self.weights(weights)?, noise).map_err(|e| e.to_string())
     }
 
     #[cfg(feature = "train")]
@@ -564,7 +544,8 @@ where
         config.train.progress = true;
         let out = a.out.unwrap_or_else(|| PathBuf::from(format!("{}.folded", S::NAME)));
         println!("train {}: {} scenes (noise {}), {} epochs, seed {}", S::NAME, config.samples, a.noise, config.train.epochs, a.seed);
-        let trained = train_learned_start_with(&S::Data::LAYOUT, self.input_rows(), &config, |rng| {
+        let rows = ProblemRows::<S, NX, NF, NP, NC, ND>::new(self.problem.clone());
+        let trained = train_learned_start_with(&S::Data::LAYOUT, rows, &config, |rng| {
             let (mut p, mut x) = self.problem.scene(rng, a.noise);
             if let Some((pc, frame)) = self.problem.canonicalize(&p) {
                 (p, x) = (pc, (frame.to_canonical)(&x));
@@ -615,12 +596,13 @@ where
             std::fs::write(path, serde_json::to_string(&file).map_err(|e| e.to_string())?)
                 .map_err(|e| format!("{}: {e}", path.display()))?;
         }
-        let learned = self.learned_start(&a.weights)?;
+        let solver = self.solver(&a.weights, a.noise)?;
+        let learned = solver.learned_start();
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
         let (target, simulator, validator) =
             (FirstRows::<S::Tracked>::new(S::Data::LAYOUT), Generic(S::Tracked::default()), self.problem.validator(a.noise));
-        let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
-        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [&learned, &refined, &random];
+        let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: learned, problem: &*self.problem };
+        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [learned, &refined, &random];
         let has_refine = S::REFINES;
         let all_roots = self.problem.all_roots().filter(|r| r.has_start_system());
         let fallback = all_roots.map(AllRootsFallback);
@@ -641,22 +623,22 @@ where
             bar.set_message(name.to_string());
             let row = bench_row(name, trials, &score, |d| {
                 bar.inc(1);
-                pipeline.solve_canonical(&Canon(&self.problem), d)
+                pipeline.solve_canonical(&Canon(&*self.problem), d)
             });
             bar.finish_and_clear();
             row
         };
-        let shipped = self.shipped_schedule();
+        let shipped = shipped_schedule(S::REFINES);
         let (gauss_newton, simulator_hc) = shipped.split_at(shipped.len() - 1);
         let mut rows = vec![
             bench_estimate_row("Pred Initial", &trials, &score, |p| match self.problem.canonicalize(p) {
-                Some((pc, frame)) => StartProvider::<SVector<f64, ND>, NX>::start(&learned, &pc).ok().map(|x| (frame.to_user)(&x)),
-                None => StartProvider::<SVector<f64, ND>, NX>::start(&learned, p).ok(),
+                Some((pc, frame)) => StartProvider::<SVector<f64, ND>, NX>::start(learned, &pc).ok().map(|x| (frame.to_user)(&x)),
+                None => StartProvider::<SVector<f64, ND>, NX>::start(learned, p).ok(),
             }),
             row(if has_refine { "Pred + Gauss-Newton (all rows)" } else { "Pred + Gauss-Newton" }, gauss_newton, false, &trials),
             row("Rand + Sim HC (one path)", &[Attempt { provider: rand, method: Method::SimulatorHc }], false, &trials),
             row("Pred + Sim HC (one path)", simulator_hc, false, &trials),
-            row(if fallback.is_some() { "Shipped (GN, Sim HC, all roots)" } else { "Shipped (GN, then Sim HC)" }, &shipped, true, &trials),
+            row(if fallback.is_some() { "Shipped (GN, Sim HC, all roots)" } else { "Shipped (GN, then Sim HC)" }, shipped, true, &trials),
         ];
         if fallback.is_some() && a.all_roots > 0 {
             rows.push(row("All-roots HC (validated)", &[], true, &trials[..a.all_roots.min(trials.len())]));
@@ -684,18 +666,7 @@ where
         let text = std::fs::read_to_string(&a.input).map_err(|e| format!("{}: {e}", a.input.display()))?;
         let p = simhc_problems::input::parse_layout_params(&layout, &text).map_err(|e| format!("{}: {e}", a.input.display()))?;
         let p = SVector::<f64, ND>::from_column_slice(&p);
-        let learned = self.learned_start(&a.weights)?;
-        let (target, simulator, validator) =
-            (FirstRows::<S::Tracked>::new(layout), Generic(S::Tracked::default()), self.problem.validator(a.noise));
-        let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &learned, problem: &self.problem };
-        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 2] = [&learned, &refined];
-        let schedule = self.shipped_schedule();
-        let fallback = self.problem.all_roots().filter(|r| r.has_start_system()).map(AllRootsFallback);
-        let mut pipeline =
-            Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &validator).with_schedule(&schedule);
-        if let Some(f) = &fallback {
-            pipeline = pipeline.with_fallback(f);
-        }
+        let solver = self.solver(&a.weights, a.noise)?;
         let unknowns = |x: &SVector<f64, NX>| -> serde_json::Value {
             layout
                 .unknowns
@@ -704,17 +675,15 @@ where
                 .collect::<serde_json::Map<_, _>>()
                 .into()
         };
-        match pipeline.solve_canonical(&Canon(&self.problem), &p) {
+        match solver.solve(&p) {
             Ok(s) => print_json(&serde_json::json!({
                 "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": format!("{:?}", s.origin), "attempts": s.attempts, "check": format!("{:?}", s.check),
             })),
-            Err(PipelineError::NotValidated(s)) => Err(format!(
-                "{}: no solution validated after {} attempts (noise {}; pass --noise for noisy data); best, flagged, NOT a solution: {} (check {:?})",
+            Err(SolveError::NotValidated { best, check, attempts }) => Err(format!(
+                "{}: no solution validated after {attempts} attempts (noise {}; pass --noise for noisy data); best, flagged, NOT a solution: {} (check {check:?})",
                 a.input.display(),
-                s.attempts,
                 a.noise,
-                unknowns(&s.x),
-                s.check
+                unknowns(&best),
             )),
             Err(e) => Err(format!("{}: {e}", a.input.display())),
         }

@@ -17,6 +17,7 @@ pub mod builtin;
 pub mod declared;
 mod grps;
 mod plots;
+pub mod solver;
 mod stats;
 mod tracker_bench;
 mod upnp;
@@ -30,6 +31,7 @@ pub use declared::{
 pub use simhc_regressor::generic::LearnedStartConfig;
 #[cfg(feature = "train")]
 pub use simhc_regressor::TrainConfig;
+pub use solver::{Solution, SolveError, Solver, SolverError};
 
 /// The `simhc` application: the built-in problems and the tracker benchmark.
 pub fn simhc_app() -> App {

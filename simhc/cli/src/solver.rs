@@ -1,0 +1,230 @@
+//! A declared problem's compiled solver as a value you call: built once (weights, start
+//! system), then [`Solver::solve`] any number of times, from any thread
+//! (`Send + Sync` when the problem is), or [`Solver::solve_batch`] across cores. The `solve`
+//! command is this solver reading one file.
+//!
+//! ```ignore
+//! let solver = simhc_cli::Solver::new(GenRelPose::new())?;        // shipped weights, noise 0
+//! match solver.solve(&params) {
+//!     Ok(s) => println!("{}", s.x),                                // validated on all rows
+//!     Err(e) => eprintln!("{e}"),                                  // typed, flagged, never a solution
+//! }
+//! ```
+//!
+//! A solve runs the shipped schedule ([`shipped_schedule`]) in the problem's canonical frame,
+//! then the all-roots fallback when the problem has one; only an end point that the problem's
+//! validator accepts on all the data comes back as `Ok`. A solve makes no heap allocation
+//! when it ends validated and the problem's own hooks do not allocate (a
+//! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`).
+
+use crate::declared::{AllRootsFallback, Canon, DeclaredProblem, FirstRows, FirstRowsError, Refined};
+use nalgebra::SVector;
+use rayon::prelude::*;
+use simhc::pipeline::{
+    Attempt, AttemptError, Generic, InputRows, LayoutRows, LearnedStart, Method, Origin, Pipeline, PipelineError, StartProvider, Validator,
+};
+use simhc::regressor::{FoldedNetwork, RegressorError};
+use simhc::ProblemLayout;
+use std::fmt::Debug;
+use std::marker::PhantomData;
+use std::sync::Arc;
+use thiserror::Error;
+
+/// The attempts of a shipped solve, over the start providers `[learned, learned refined on all
+/// rows]`: with a refine hook ([`DeclaredProblem::REFINES`]), its least-squares point on all
+/// rows as it is, then Gauss-Newton on the tracked rows from it (with noise the first validates
+/// more often: the tracked rows' exact root carries their noise to the other rows); without
+/// one, Gauss-Newton on the tracked rows from the learned start; last, one Simulator HC path
+/// from the learned start. The fallback comes after them.
+pub fn shipped_schedule(refines: bool) -> &'static [Attempt] {
+    const SIMULATOR_HC: Attempt = Attempt { provider: 0, method: Method::SimulatorHc };
+    const REFINED: [Attempt; 3] =
+        [Attempt { provider: 1, method: Method::Start }, Attempt { provider: 1, method: Method::GaussNewton }, SIMULATOR_HC];
+    const PLAIN: [Attempt; 2] = [Attempt { provider: 0, method: Method::GaussNewton }, SIMULATOR_HC];
+    if refines {
+        &REFINED
+    } else {
+        &PLAIN
+    }
+}
+
+/// A problem's learned-start input rows: its own ([`DeclaredProblem::input_rows`]) or its data
+/// layout's. Shares the problem, so a solver that holds it is `Send + Sync` when the problem is.
+pub struct ProblemRows<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+    problem: Arc<S>,
+    sizes: PhantomData<fn() -> [(); NX]>,
+}
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> ProblemRows<S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    /// The rows of `problem`.
+    pub fn new(problem: Arc<S>) -> Self {
+        Self { problem, sizes: PhantomData }
+    }
+}
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> InputRows
+    for ProblemRows<S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    fn shape(&self) -> (usize, usize) {
+        match self.problem.input_rows() {
+            Some(rows) => rows.shape(),
+            None => LayoutRows(S::Data::LAYOUT).shape(),
+        }
+    }
+    fn write(&self, p: &[f64], out: &mut [f32]) -> bool {
+        match self.problem.input_rows() {
+            Some(rows) => rows.write(p, out),
+            None => LayoutRows(S::Data::LAYOUT).write(p, out),
+        }
+    }
+}
+
+/// A validated solution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Solution<C, const NX: usize> {
+    /// The unknowns, in the layout's order (in the user's frame).
+    pub x: SVector<f64, NX>,
+    /// What produced them: an attempt of [`shipped_schedule`] or a fallback candidate.
+    pub origin: Origin,
+    /// Attempts made, the fallback counted as one.
+    pub attempts: usize,
+    /// The validator's figures on all the data.
+    pub check: C,
+}
+
+/// Why a solve returned no validated solution.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SolveError<C: Debug, const NX: usize> {
+    /// The data is not a problem instance; says which row (correspondence) and field.
+    #[error("input: {0}")]
+    Input(FirstRowsError),
+    /// End points were found and none validated: the best one, flagged. Not a solution.
+    #[error("no solution validated after {attempts} attempts (best, flagged, NOT a solution: check {check:?})")]
+    NotValidated {
+        /// The best end point.
+        best: SVector<f64, NX>,
+        /// Its check.
+        check: C,
+        /// Attempts made.
+        attempts: usize,
+    },
+    /// No attempt produced an end point, and no fallback candidate.
+    #[error("no end point after {attempts} attempts{}", match last { Some(e) => format!("; last: {e}"), None => String::new() })]
+    NoEndPoint {
+        /// Attempts made.
+        attempts: usize,
+        /// The last attempt's error.
+        last: Option<AttemptError>,
+    },
+}
+
+/// Why a solver could not be built.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SolverError {
+    /// The problem ships no weights and none were given.
+    #[error("{0} has no shipped weights: pass weights made by `train {0}`")]
+    NoWeights(&'static str),
+    /// The weights do not load, or were made for other input rows or unknowns.
+    #[error("weights: {0}")]
+    Weights(#[from] RegressorError),
+}
+
+/// The learned start of a solver.
+pub type SolverStart<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> =
+    LearnedStart<ProblemRows<S, NX, NF, NP, NC, ND>>;
+
+/// A declared problem's solver ([module docs](self)).
+pub struct Solver<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    problem: Arc<S>,
+    learned: SolverStart<S, NX, NF, NP, NC, ND>,
+    validator: S::Validator,
+}
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Solver<S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    /// The solver of `problem` with its shipped weights, for noise-free data.
+    pub fn new(problem: S) -> Result<Self, SolverError> {
+        let weights = problem.weights().ok_or(SolverError::NoWeights(S::NAME))?;
+        Self::with_weights(problem, weights, 0.0)
+    }
+
+    /// The solver of `problem` with the learned start of `weights` (a file made by `train`),
+    /// validating for data with noise of size `noise` (the problem's unit).
+    pub fn with_weights(problem: S, weights: &[u8], noise: f64) -> Result<Self, SolverError> {
+        Self::with_shared(Arc::new(problem), weights, noise)
+    }
+
+    /// [`Solver::with_weights`] for a problem shared with other holders.
+    pub fn with_shared(problem: Arc<S>, weights: &[u8], noise: f64) -> Result<Self, SolverError> {
+        let network = FoldedNetwork::from_bytes(weights)?;
+        let learned = LearnedStart::with_rows(network, S::Data::LAYOUT, ProblemRows::new(problem.clone()))?;
+        let validator = problem.validator(noise);
+        Ok(Self { problem, learned, validator })
+    }
+
+    /// The problem.
+    pub fn problem(&self) -> &S {
+        &self.problem
+    }
+
+    /// The learned start.
+    pub fn learned_start(&self) -> &SolverStart<S, NX, NF, NP, NC, ND> {
+        &self.learned
+    }
+
+    /// Solves the data `p` (all rows, the data layout's order): a validated solution or a
+    /// typed error; a wrong answer is never returned as `Ok`.
+    #[allow(clippy::type_complexity)]
+    pub fn solve(
+        &self,
+        p: &SVector<f64, ND>,
+    ) -> Result<
+        Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
+        SolveError<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
+    > {
+        let target = FirstRows::<S::Tracked>::new(S::Data::LAYOUT);
+        let simulator = Generic(S::Tracked::default());
+        let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &self.learned, problem: &self.problem };
+        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 2] = [&self.learned, &refined];
+        let all_roots = self.problem.all_roots().filter(|r| r.has_start_system()).map(AllRootsFallback);
+        let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &self.validator)
+            .with_schedule(shipped_schedule(S::REFINES));
+        if let Some(f) = &all_roots {
+            pipeline = pipeline.with_fallback(f);
+        }
+        match pipeline.solve_canonical(&Canon(&*self.problem), p) {
+            Ok(s) => Ok(Solution { x: s.x, origin: s.origin, attempts: s.attempts, check: s.check }),
+            Err(PipelineError::Input(e)) => Err(SolveError::Input(e)),
+            Err(PipelineError::NotValidated(s)) => Err(SolveError::NotValidated { best: s.x, check: s.check, attempts: s.attempts }),
+            Err(PipelineError::NoEndPoint { attempts, last }) => Err(SolveError::NoEndPoint { attempts, last }),
+        }
+    }
+
+    /// [`Solver::solve`] on every element of `data`, in order, across rayon's threads.
+    #[allow(clippy::type_complexity)]
+    pub fn solve_batch(
+        &self,
+        data: &[SVector<f64, ND>],
+    ) -> Vec<
+        Result<
+            Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
+            SolveError<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
+        >,
+    >
+    where
+        Self: Sync,
+        <S::Validator as Validator<SVector<f64, ND>, NX>>::Check: Send,
+    {
+        data.par_iter().map(|p| self.solve(p)).collect()
+    }
+}

@@ -1,0 +1,194 @@
+//! A declared problem's solver as a library value ([`simhc_cli::Solver`]): built once, then
+//! called many times, from several threads, without heap allocation per solve; bad input is a
+//! typed error that says where, and data no solution explains never comes back as `Ok`.
+#![allow(unsafe_code)]
+
+use nalgebra::SVector;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use simhc::pipeline::{Validator, Verdict};
+use simhc_cli::{App, Declared, DeclaredProblem, SolveError, Solver};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+/// Counts allocations on threads that armed it; forwards everything to `System`.
+struct Counting;
+
+thread_local! {
+    static ARMED: Cell<bool> = const { Cell::new(false) };
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+fn note_allocation() {
+    if ARMED.try_with(Cell::get).unwrap_or(false) {
+        let _ = ALLOCATIONS.try_with(|n| n.set(n.get() + 1));
+    }
+}
+
+// SAFETY: every call is forwarded unchanged to the system allocator; the counter only touches
+// thread-local cells.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        // SAFETY: forwarded with the caller's layout.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        // SAFETY: forwarded with the caller's layout.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note_allocation();
+        // SAFETY: `ptr` and `layout` come from this allocator, i.e. from `System`.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` and `layout` come from this allocator, i.e. from `System`.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// `f` with the counter armed on this thread, and the allocations it made.
+fn counted<R>(f: impl FnOnce() -> R) -> (R, usize) {
+    ALLOCATIONS.with(|n| n.set(0));
+    ARMED.with(|a| a.set(true));
+    let r = f();
+    ARMED.with(|a| a.set(false));
+    (r, ALLOCATIONS.with(Cell::get))
+}
+
+#[simhc::simhc_problem]
+pub mod line {
+    pub struct Unknowns {
+        a: Scalar,
+        b: Scalar,
+    }
+    pub struct Row {
+        x: Scalar,
+        y: Scalar,
+    }
+    pub const ROWS: [usize; 1] = [4];
+    pub fn row_equations() -> Scalar {
+        a * x + b - y
+    }
+}
+
+type Line4 = line::Line4;
+type P = SVector<f64, 8>;
+type X = SVector<f64, 2>;
+
+/// Every row's residual below `1e-9`.
+struct Residual;
+
+impl Validator<P, 2> for Residual {
+    type Check = f64;
+    fn check(&self, p: &P, x: &X) -> f64 {
+        p.as_slice().chunks_exact(2).map(|r| (x[0] * r[0] + x[1] - r[1]).abs()).fold(0.0, f64::max)
+    }
+    fn verdict(&self, c: &f64) -> Verdict {
+        if *c <= 1e-9 {
+            Verdict::Accept
+        } else {
+            Verdict::Reject
+        }
+    }
+    fn better(&self, a: &f64, b: &f64) -> bool {
+        a < b
+    }
+}
+
+struct Line;
+
+impl DeclaredProblem<2, 4, 8, { Line4::NC }, 8> for Line {
+    type Tracked = Line4;
+    type Data = Line4;
+    type Validator = Residual;
+    const NAME: &'static str = "line";
+    const ABOUT: &'static str = "a line y = a x + b";
+    const ERRORS: &'static [&'static str] = &["error"];
+    fn scene(&self, rng: &mut ChaCha8Rng, _: f64) -> (P, X) {
+        let (a, b) = (rng.random_range(-2.0..2.0), rng.random_range(-1.0..1.0));
+        let mut p = P::zeros();
+        for r in 0..4 {
+            p[2 * r] = rng.random_range(-2.0..2.0);
+            p[2 * r + 1] = a * p[2 * r] + b;
+        }
+        (p, X::new(a, b))
+    }
+    fn validator(&self, _: f64) -> Residual {
+        Residual
+    }
+    fn errors(&self, x: &X, truth: &X) -> Vec<f64> {
+        vec![(x - truth).amax()]
+    }
+    fn correct(&self, errors: &[f64]) -> bool {
+        errors[0] < 1e-6
+    }
+}
+
+fn assert_send_sync<T: Send + Sync>(_: &T) {}
+
+/// A solver with weights trained here (a small network; the solve validates whatever it gets).
+fn solver() -> Solver<Line, 2, 4, 8, { Line4::NC }, 8> {
+    let dir = std::env::temp_dir().join(format!("simhc-library-solver-{}-{:?}", std::process::id(), std::thread::current().id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let weights = dir.join("line.folded");
+    let app = App::new("lines", "test").register(Declared::new(Line));
+    app.run_from(["lines", "train", "line", "--samples", "512", "--epochs", "2", "--seed", "3", "--out", weights.to_str().unwrap()])
+        .expect("trains");
+    let bytes = std::fs::read(&weights).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    Solver::with_weights(Line, &bytes, 0.0).expect("the weights load")
+}
+
+#[test]
+fn solves_many_scenes_without_allocating_and_across_threads() {
+    let seed = 7;
+    println!("seed {seed}");
+    let solver = solver();
+    assert_send_sync(&solver);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let scenes: Vec<(P, X)> = (0..200).map(|_| Line.scene(&mut rng, 0.0)).collect();
+    // Warm up once (lazy statics of the runtime, if any), then count.
+    let _ = solver.solve(&scenes[0].0);
+    let solved = scenes.iter().filter(|(p, truth)| solver.solve(p).is_ok_and(|s| (s.x - truth).amax() < 1e-9)).count();
+    assert_eq!(solved, 200, "every noise-free scene solves");
+    let mut per_solve = 0;
+    for (p, _) in &scenes[..50] {
+        let (r, n) = counted(|| solver.solve(p));
+        assert!(r.is_ok());
+        per_solve += n;
+    }
+    assert_eq!(per_solve, 0, "a validated solve allocates nothing");
+    let data: Vec<P> = scenes.iter().map(|(p, _)| *p).collect();
+    let batch = solver.solve_batch(&data);
+    for (b, p) in batch.iter().zip(&data) {
+        assert_eq!(b.as_ref().map(|s| s.x).ok(), solver.solve(p).map(|s| s.x).ok(), "the batch gives what one solve gives");
+    }
+}
+
+#[test]
+fn bad_input_is_a_typed_error_and_no_fit_is_never_ok() {
+    let solver = solver();
+    let mut rng = ChaCha8Rng::seed_from_u64(8);
+    let (mut p, _) = Line.scene(&mut rng, 0.0);
+    p[3] = f64::NAN;
+    match solver.solve(&p) {
+        Err(e @ SolveError::Input(_)) => {
+            let msg = e.to_string();
+            assert!(msg.contains("row 1") && msg.contains("`y`"), "{msg}");
+        }
+        other => panic!("expected an input error, got {other:?}"),
+    }
+    // Four points on no line: whatever comes back is flagged, never a solution.
+    let p = P::from_column_slice(&[0.0, 0.0, 1.0, 1.0, 2.0, 0.0, 3.0, 5.0]);
+    match solver.solve(&p) {
+        Err(SolveError::NotValidated { check, .. }) => assert!(check > 1e-3, "{check}"),
+        Err(SolveError::NoEndPoint { .. }) => {}
+        other => panic!("four points on no line must not solve: {other:?}"),
+    }
+}

@@ -5,10 +5,12 @@
 use nalgebra::SVector;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use simhc::pipeline::{Validator, Verdict};
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
 use simhc_cli::{App, Declared, DeclaredProblem};
 use std::sync::atomic::{AtomicUsize, Ordering};
+
+mod support;
+use support::Residual;
 
 #[simhc::simhc_problem(simulator = custom)]
 pub mod line {
@@ -35,26 +37,6 @@ impl OnlineSimulator<1, 3, 6> for Line3 {
     fn simulate(&self, x0: &SVector<f64, 1>, p: &SVector<f64, 6>) -> Result<SVector<f64, 6>, SimulatorError> {
         CALLS.fetch_add(1, Ordering::SeqCst);
         MinNormSimulator::<Line3>::new().run::<1, 3, 6>(x0, p)
-    }
-}
-
-/// Every row's residual below `1e-9`.
-struct Residual;
-
-impl Validator<SVector<f64, 6>, 1> for Residual {
-    type Check = f64;
-    fn check(&self, p: &SVector<f64, 6>, x: &SVector<f64, 1>) -> f64 {
-        p.as_slice().chunks_exact(2).map(|r| (x[0] * r[0] - r[1]).abs()).fold(0.0, f64::max)
-    }
-    fn verdict(&self, c: &f64) -> Verdict {
-        if *c <= 1e-9 {
-            Verdict::Accept
-        } else {
-            Verdict::Reject
-        }
-    }
-    fn better(&self, a: &f64, b: &f64) -> bool {
-        a < b
     }
 }
 

@@ -5,10 +5,13 @@
 use nalgebra::SVector;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use simhc::pipeline::{InputRows, Validator, Verdict};
+use simhc::pipeline::InputRows;
 use simhc_cli::{App, Declared, DeclaredProblem};
 use std::cell::Cell;
 use std::rc::Rc;
+
+mod support;
+use support::Residual;
 
 #[simhc::simhc_problem]
 pub mod line {
@@ -41,26 +44,6 @@ impl InputRows for Slopes {
         }
         p.chunks_exact(2).zip(out.iter_mut()).for_each(|(r, o)| *o = (r[1] / r[0]) as f32);
         true
-    }
-}
-
-/// Every row's residual below `1e-9`.
-struct Residual;
-
-impl Validator<SVector<f64, 6>, 1> for Residual {
-    type Check = f64;
-    fn check(&self, p: &SVector<f64, 6>, x: &SVector<f64, 1>) -> f64 {
-        p.as_slice().chunks_exact(2).map(|r| (x[0] * r[0] - r[1]).abs()).fold(0.0, f64::max)
-    }
-    fn verdict(&self, c: &f64) -> Verdict {
-        if *c <= 1e-9 {
-            Verdict::Accept
-        } else {
-            Verdict::Reject
-        }
-    }
-    fn better(&self, a: &f64, b: &f64) -> bool {
-        a < b
     }
 }
 

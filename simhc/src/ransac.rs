@@ -14,9 +14,12 @@
 //! `sum_i min(r_i², threshold²)` (Torr and Zisserman 2000: inliers, `r_i <= threshold`, count
 //! by their squared residual, outliers by a constant; plain inlier counting cannot tell two
 //! models with the same inliers apart, which matters for accepting a refinement). After a new
-//! best model with inlier ratio `w`, the number of iterations needed to draw at least one all-inlier
-//! sample with probability `confidence` is `k = log(1 - confidence) / log(1 - w^m)`; the loop
-//! stops at `min(k, max_iterations)` (with [`RansacOptions::local_optimization`], each new best
+//! best model with `I` inliers of `n` data, the number of iterations needed to draw at least one
+//! all-inlier sample with probability `confidence` is `k = log(1 - confidence) / log(1 - p)`,
+//! with `p` the exact probability that a sample of `m` distinct data is all inliers,
+//! `p = prod_{j < m} (I - j) / (n - j)` ([`all_inlier_probability`]; the usual `w^m`, `w = I / n`,
+//! overstates it for small `n` and stops too early); the loop runs at least `min_iterations`
+//! and stops at `min(max(k, min_iterations), max_iterations)` (with [`RansacOptions::local_optimization`], each new best
 //! model is first refined on its inliers, LO-RANSAC). Then, if enabled, the best model is refined on its
 //! inliers, the inliers recomputed, and the refinement kept when it lowers the MSAC cost
 //! (`refine_rounds` times).
@@ -68,6 +71,8 @@ pub trait Estimator {
 pub struct RansacOptions {
     /// Iterations (samples) at most. Default `200` (the paper's GRPS experiment).
     pub max_iterations: usize,
+    /// Iterations (samples) at least, whatever the stopping rule says. Default `0`.
+    pub min_iterations: usize,
     /// Stop once an all-inlier sample has been drawn with this probability (for the current
     /// best inlier ratio). Default `0.99`.
     pub confidence: f64,
@@ -87,7 +92,31 @@ pub struct RansacOptions {
 
 impl Default for RansacOptions {
     fn default() -> Self {
-        Self { max_iterations: 200, confidence: 0.99, threshold: 0.01, refine_rounds: 2, seed: 0, local_optimization: false }
+        Self {
+            max_iterations: 200,
+            min_iterations: 0,
+            confidence: 0.99,
+            threshold: 0.01,
+            refine_rounds: 2,
+            seed: 0,
+            local_optimization: false,
+        }
+    }
+}
+
+impl RansacOptions {
+    /// PoseLib's defaults (`RansacOptions` of PoseLib 2.x): confidence `0.9999`, at least 1000
+    /// and at most 100000 iterations, local optimization on; `threshold` is the caller's.
+    pub fn poselib(threshold: f64) -> Self {
+        Self {
+            max_iterations: 100_000,
+            min_iterations: 1000,
+            confidence: 0.9999,
+            threshold,
+            refine_rounds: 2,
+            seed: 0,
+            local_optimization: true,
+        }
     }
 }
 
@@ -98,18 +127,39 @@ pub struct RansacResult<M> {
     pub model: M,
     /// Indices of its inliers, increasing.
     pub inliers: Vec<usize>,
+    /// Whether each datum is an inlier of the model.
+    pub inlier_mask: Vec<bool>,
+    /// The model's MSAC cost `sum_i min(r_i², threshold²)` (lower is better).
+    pub score: f64,
     /// Iterations (samples) run.
     pub iterations: usize,
     /// Hypotheses scored.
     pub hypotheses: usize,
-    /// Whether a refinement was kept.
+    /// Whether a refinement of the final rounds was kept.
     pub refined: bool,
+    /// Refinements kept, local optimizations and final rounds together.
+    pub refinements: usize,
 }
 
-/// Iterations needed to draw an all-inlier sample of size `m` with probability `confidence`
-/// when a fraction `w` of the data are inliers (`usize::MAX` when `w^m` underflows to zero).
-pub fn required_iterations(w: f64, m: usize, confidence: f64) -> usize {
-    let p = w.clamp(0.0, 1.0).powi(m as i32);
+impl<M> RansacResult<M> {
+    /// Inliers over data.
+    pub fn inlier_ratio(&self) -> f64 {
+        self.inliers.len() as f64 / self.inlier_mask.len().max(1) as f64
+    }
+}
+
+/// The probability that `m` data drawn without replacement out of `n`, `inliers` of which are
+/// inliers, are all inliers: `prod_{j < m} (inliers - j) / (n - j)`.
+pub fn all_inlier_probability(inliers: usize, n: usize, m: usize) -> f64 {
+    if inliers < m || n < m {
+        return 0.0;
+    }
+    (0..m).map(|j| (inliers - j) as f64 / (n - j) as f64).product()
+}
+
+/// Iterations needed for one all-inlier sample with probability `confidence`, from the
+/// probability `p` that one sample is all inliers (`usize::MAX` for `p = 0`).
+fn iterations_for(p: f64, confidence: f64) -> usize {
     if p >= 1.0 {
         return 1;
     }
@@ -122,6 +172,20 @@ pub fn required_iterations(w: f64, m: usize, confidence: f64) -> usize {
     } else {
         usize::MAX
     }
+}
+
+/// Iterations needed to draw an all-inlier sample of `m` of `n` data, `inliers` of them
+/// inliers, with probability `confidence` (the exact rule of [`ransac`]).
+pub fn required_iterations_exact(inliers: usize, n: usize, m: usize, confidence: f64) -> usize {
+    iterations_for(all_inlier_probability(inliers, n, m), confidence)
+}
+
+/// Iterations needed to draw an all-inlier sample of size `m` with probability `confidence`
+/// when a fraction `w` of the data are inliers, by the approximation `p = w^m` (with
+/// replacement; [`required_iterations_exact`] is what [`ransac`] uses). `usize::MAX` when `w^m`
+/// underflows to zero.
+pub fn required_iterations(w: f64, m: usize, confidence: f64) -> usize {
+    iterations_for(w.clamp(0.0, 1.0).powi(m as i32), confidence)
 }
 
 /// Inlier count, MSAC cost `sum_i min(r_i², threshold²)`, and (optionally) the inlier indices
@@ -181,7 +245,8 @@ pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOp
     let mut iterations = 0;
     let mut scored = 0;
     let mut lo_inliers = Vec::new();
-    while iterations < needed.min(options.max_iterations) {
+    let mut refinements = 0;
+    while iterations < needed.max(options.min_iterations).min(options.max_iterations) {
         iterations += 1;
         draw(&mut rng, &mut pool, m, &mut sample);
         hypotheses.clear();
@@ -201,11 +266,12 @@ pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOp
                         let (c, s) = score(estimator, &r, data, options.threshold, None);
                         if s < sum || (s == sum && c > count) {
                             (h, count, sum) = (r, c, s);
+                            refinements += 1;
                         }
                     }
                 }
                 best = Some((h, count, sum));
-                needed = required_iterations(count as f64 / n as f64, m, options.confidence);
+                needed = required_iterations_exact(count, n, m, options.confidence);
             }
         }
     }
@@ -225,11 +291,14 @@ pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOp
             (count, sum) = (c, s);
             std::mem::swap(&mut inliers, &mut candidate_inliers);
             refined = true;
+            refinements += 1;
         } else {
             break;
         }
     }
-    Some(RansacResult { model, inliers, iterations, hypotheses: scored, refined })
+    let mut inlier_mask = vec![false; n];
+    inliers.iter().for_each(|&i| inlier_mask[i] = true);
+    Some(RansacResult { model, inliers, inlier_mask, score: sum, iterations, hypotheses: scored, refined, refinements })
 }
 
 #[cfg(test)]
@@ -244,5 +313,17 @@ mod tests {
         assert_eq!(required_iterations(0.0, 7, 0.99), usize::MAX);
         // 60 % inliers, 7-point samples: about 163 iterations
         assert_eq!(required_iterations(0.6, 7, 0.99), 163);
+    }
+
+    #[test]
+    fn the_exact_rule_draws_without_replacement() {
+        // 5 inliers of 10, pairs: p = 5/10 * 4/9 = 2/9, log(0.01) / log(7/9) = 18.33 -> 19,
+        // where w^m = 1/4 gives 17 and stops early.
+        assert!((all_inlier_probability(5, 10, 2) - 2.0 / 9.0).abs() < 1e-15);
+        assert_eq!(required_iterations_exact(5, 10, 2, 0.99), 19);
+        assert_eq!(required_iterations_exact(10, 10, 7, 0.99), 1);
+        assert_eq!(required_iterations_exact(6, 10, 7, 0.99), usize::MAX);
+        // Many data: the two rules agree.
+        assert_eq!(required_iterations_exact(600_000, 1_000_000, 7, 0.99), required_iterations(0.6, 7, 0.99));
     }
 }

@@ -121,3 +121,21 @@ fn edge_cases() {
     assert!(r.is_some_and(|r| r.iterations <= 25));
     assert_eq!(required_iterations(0.5, 2, 0.99), 17);
 }
+
+#[test]
+fn poselib_defaults_run_at_least_their_minimum_and_report_what_they_did() {
+    let seed = 9;
+    println!("seed {seed}");
+    let pts = data(200, 0.4, seed);
+    let options = RansacOptions { seed, ..RansacOptions::poselib(0.03) };
+    let r = ransac(&LineEstimator { refine: true }, &pts, &options).expect("a model");
+    // 60 % inliers and pairs need about 10 samples; PoseLib's minimum is 1000.
+    assert_eq!(r.iterations, 1000);
+    assert!(angle_error(&r.model) < 1e-3, "{:?}", r.model);
+    assert_eq!(r.inlier_mask.len(), pts.len());
+    assert_eq!(r.inlier_mask.iter().filter(|m| **m).count(), r.inliers.len());
+    assert!(r.inliers.iter().all(|&i| r.inlier_mask[i]));
+    assert!((r.inlier_ratio() - r.inliers.len() as f64 / 200.0).abs() < 1e-15);
+    assert!(r.refinements >= 1, "local optimization on every new best model keeps at least one refinement");
+    assert!(r.score > 0.0 && r.score <= 200.0 * 0.03 * 0.03);
+}

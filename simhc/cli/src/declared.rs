@@ -135,6 +135,14 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn all_roots(&self) -> Option<&dyn AllRoots<NX, ND>> {
         None
     }
+    /// The error of one correspondence under `x`, which the robust estimator
+    /// ([`crate::Solver::estimate`]) compares with its threshold: `row` holds the row's numbers
+    /// in the layout's order, `globals` the global ones. Default: the largest absolute residual
+    /// of the row's equations ([`crate::estimate::row_residual`]); a geometric error (angular,
+    /// Sampson) makes the threshold mean the same for every correspondence.
+    fn row_error(&self, x: &SVector<f64, NX>, row: &[f64], globals: &[f64]) -> f64 {
+        crate::estimate::row_residual::<Self::Tracked, NX, NF, NP>(x, row, globals)
+    }
 }
 
 /// A map of the unknowns from one frame to another.

@@ -15,6 +15,7 @@
 pub mod app;
 pub mod builtin;
 pub mod declared;
+pub mod estimate;
 mod grps;
 mod plots;
 pub mod solver;
@@ -27,6 +28,7 @@ pub use builtin::{Grps, TrackerBench, Upnp};
 pub use declared::{
     AllRoots, CanonicalFrame, Declared, DeclaredProblem, FirstRows, FirstRowsError, RandomStart, Refinement, SquareSubsystem,
 };
+pub use estimate::{EstimateError, EstimateInfo};
 #[cfg(feature = "train")]
 pub use simhc_regressor::generic::LearnedStartConfig;
 #[cfg(feature = "train")]

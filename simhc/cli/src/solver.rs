@@ -192,11 +192,24 @@ where
         Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
         SolveError<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
     > {
+        self.run(p, true)
+    }
+
+    /// A solve with or without the all-roots fallback (a RANSAC sample goes without).
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn run(
+        &self,
+        p: &SVector<f64, ND>,
+        fallback: bool,
+    ) -> Result<
+        Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
+        SolveError<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
+    > {
         let target = FirstRows::<S::Tracked>::new(S::Data::LAYOUT);
         let simulator = Generic(S::Tracked::default());
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &self.learned, problem: &self.problem };
         let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 2] = [&self.learned, &refined];
-        let all_roots = self.problem.all_roots().filter(|r| r.has_start_system()).map(AllRootsFallback);
+        let all_roots = self.problem.all_roots().filter(|r| fallback && r.has_start_system()).map(AllRootsFallback);
         let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &self.validator)
             .with_schedule(shipped_schedule(S::REFINES));
         if let Some(f) = &all_roots {

@@ -7,7 +7,8 @@ use nalgebra::SVector;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Validator, Verdict};
-use simhc_cli::{App, Declared, DeclaredProblem, SolveError, Solver};
+use simhc::ransac::RansacOptions;
+use simhc_cli::{App, Declared, DeclaredProblem, EstimateError, SolveError, Solver};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
@@ -81,8 +82,8 @@ type Line4 = line::Line4;
 type P = SVector<f64, 8>;
 type X = SVector<f64, 2>;
 
-/// Every row's residual below `1e-9`.
-struct Residual;
+/// Every row's residual below the tolerance (`1e-9` plus 6 noise sigmas).
+struct Residual(f64);
 
 impl Validator<P, 2> for Residual {
     type Check = f64;
@@ -90,7 +91,7 @@ impl Validator<P, 2> for Residual {
         p.as_slice().chunks_exact(2).map(|r| (x[0] * r[0] + x[1] - r[1]).abs()).fold(0.0, f64::max)
     }
     fn verdict(&self, c: &f64) -> Verdict {
-        if *c <= 1e-9 {
+        if *c <= self.0 {
             Verdict::Accept
         } else {
             Verdict::Reject
@@ -119,8 +120,8 @@ impl DeclaredProblem<2, 4, 8, { Line4::NC }, 8> for Line {
         }
         (p, X::new(a, b))
     }
-    fn validator(&self, _: f64) -> Residual {
-        Residual
+    fn validator(&self, noise: f64) -> Residual {
+        Residual(1e-9 + 6.0 * noise)
     }
     fn errors(&self, x: &X, truth: &X) -> Vec<f64> {
         vec![(x - truth).amax()]
@@ -134,6 +135,11 @@ fn assert_send_sync<T: Send + Sync>(_: &T) {}
 
 /// A solver with weights trained here (a small network; the solve validates whatever it gets).
 fn solver() -> Solver<Line, 2, 4, 8, { Line4::NC }, 8> {
+    noisy_solver(0.0)
+}
+
+/// The same for data with noise of `noise` (the validator's tolerance).
+fn noisy_solver(noise: f64) -> Solver<Line, 2, 4, 8, { Line4::NC }, 8> {
     let dir = std::env::temp_dir().join(format!("simhc-library-solver-{}-{:?}", std::process::id(), std::thread::current().id()));
     std::fs::create_dir_all(&dir).unwrap();
     let weights = dir.join("line.folded");
@@ -142,7 +148,7 @@ fn solver() -> Solver<Line, 2, 4, 8, { Line4::NC }, 8> {
         .expect("trains");
     let bytes = std::fs::read(&weights).unwrap();
     std::fs::remove_dir_all(&dir).ok();
-    Solver::with_weights(Line, &bytes, 0.0).expect("the weights load")
+    Solver::with_weights(Line, &bytes, noise).expect("the weights load")
 }
 
 #[test]
@@ -191,4 +197,53 @@ fn bad_input_is_a_typed_error_and_no_fit_is_never_ok() {
         Err(SolveError::NoEndPoint { .. }) => {}
         other => panic!("four points on no line must not solve: {other:?}"),
     }
+}
+
+/// 100 points, 40 % of them outliers, inliers with noise `sigma`: rows `[x, y]` and which are
+/// inliers.
+fn outlier_data(seed: u64, sigma: f64) -> (Vec<f64>, Vec<bool>, X) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (a, b) = (rng.random_range(-2.0..2.0), rng.random_range(-1.0..1.0));
+    let mut rows = Vec::new();
+    let mut inlier = Vec::new();
+    for i in 0..100 {
+        let x: f64 = rng.random_range(-2.0..2.0);
+        let is_inlier = i % 5 >= 2;
+        let y = if is_inlier { a * x + b + sigma * rng.random_range(-1.0..1.0) } else { rng.random_range(-6.0..6.0) };
+        rows.extend([x, y]);
+        inlier.push(is_inlier);
+    }
+    (rows, inlier, X::new(a, b))
+}
+
+#[test]
+fn the_robust_estimator_finds_the_inliers_among_40_percent_outliers() {
+    let (seed, sigma) = (12, 1e-3);
+    println!("seed {seed}, noise {sigma}");
+    let solver = noisy_solver(sigma);
+    let (rows, truth_mask, truth) = outlier_data(seed, sigma);
+    let options = RansacOptions { seed, ..RansacOptions::poselib(0.01) };
+    let (x, info) = solver.estimate(&rows, &[], &options).expect("a model");
+    println!("{x:?} against {truth:?}: {info:?}");
+    let found = info.inlier_mask.iter().zip(&truth_mask).filter(|(m, t)| **m && **t).count();
+    let true_inliers = truth_mask.iter().filter(|t| **t).count();
+    assert!(found * 100 >= true_inliers * 95, "recall {found} of {true_inliers}");
+    assert!((x - truth).amax() < 3e-3, "{x:?} against {truth:?}");
+    assert_eq!(info.inlier_mask.iter().filter(|m| **m).count(), info.inliers.len());
+    assert!((info.inlier_ratio - info.inliers.len() as f64 / 100.0).abs() < 1e-15);
+    assert!(info.iterations >= 1000, "PoseLib's minimum: {}", info.iterations);
+    assert!(info.refinements >= 1, "local optimization on the noisy inliers");
+}
+
+#[test]
+fn the_robust_estimator_names_bad_input() {
+    let solver = solver();
+    let (mut rows, _, _) = outlier_data(13, 0.0);
+    let options = RansacOptions { max_iterations: 50, ..RansacOptions::poselib(0.01) };
+    assert_eq!(solver.estimate(&rows[..7], &[], &options).unwrap_err(), EstimateError::Length { len: 7, per_row: 2 });
+    assert_eq!(solver.estimate(&rows[..6], &[], &options).unwrap_err(), EstimateError::TooFew { rows: 3, needed: 4 });
+    assert_eq!(solver.estimate(&rows, &[1.0], &options).unwrap_err(), EstimateError::Globals { got: 1, expected: 0 });
+    rows[2 * 7 + 1] = f64::NAN;
+    let err = solver.estimate(&rows, &[], &options).unwrap_err();
+    assert!(err.to_string().contains("row 7") && err.to_string().contains("`y`"), "{err}");
 }

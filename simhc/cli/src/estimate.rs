@@ -1,0 +1,275 @@
+//! A robust estimator for every declared problem, in the shape PoseLib users know:
+//! [`Solver::estimate`]`(rows, globals, &options) -> (x, info)`.
+//!
+//! - **Samples** are as many rows as the problem's data instance has (the tracked rows and the
+//!   rows that validate them, e.g. 6 + 1). Each is solved by the shipped schedule *without* the
+//!   all-roots fallback: a sample that does not validate costs a few paths and yields no model.
+//! - **Scoring**: MSAC on the problem's per-correspondence error
+//!   ([`DeclaredProblem::row_error`]; by default the largest absolute row residual,
+//!   [`row_residual`]).
+//! - **Local optimization** (LO-RANSAC) every time a better model appears, and on the final
+//!   model: Gauss-Newton with a Cauchy loss on the row equations of all inliers, whatever their
+//!   count, then the start put back on the equations without parameters
+//!   ([`simhc::onto_parameter_free`]); kept when it lowers the MSAC cost.
+//! - **Stopping**: the exact rule of [`simhc::ransac`] (a sample drawn without replacement),
+//!   between [`RansacOptions::min_iterations`] and [`RansacOptions::max_iterations`];
+//!   [`RansacOptions::poselib`] gives PoseLib's defaults.
+//!
+//! The row residual and its Jacobian come from the tracked instance's compiled code, with the
+//! row written into every row slot (its first row's equations are the row's).
+
+use crate::declared::DeclaredProblem;
+use crate::solver::Solver;
+use nalgebra::{SMatrix, SVector};
+use simhc::pipeline::learned::NonFiniteParameter;
+use simhc::ransac::{ransac, Estimator, RansacOptions};
+use simhc::{Problem, ProblemLayout};
+use std::marker::PhantomData;
+use thiserror::Error;
+
+/// What a robust estimate did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimateInfo {
+    /// Samples drawn.
+    pub iterations: usize,
+    /// Models scored (validated sample solutions and refinements).
+    pub hypotheses: usize,
+    /// Inliers of the returned model, increasing.
+    pub inliers: Vec<usize>,
+    /// Whether each row is an inlier.
+    pub inlier_mask: Vec<bool>,
+    /// Inliers over rows.
+    pub inlier_ratio: f64,
+    /// MSAC cost of the returned model, `sum_i min(e_i², threshold²)` (lower is better).
+    pub score: f64,
+    /// Refinements kept (local optimizations and the final rounds).
+    pub refinements: usize,
+}
+
+/// Why there is no robust estimate.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum EstimateError {
+    /// `rows` is not a whole number of rows.
+    #[error("{len} numbers are not whole rows of {per_row}")]
+    Length {
+        /// Numbers given.
+        len: usize,
+        /// Numbers per row.
+        per_row: usize,
+    },
+    /// The globals have the wrong length.
+    #[error("{got} global numbers, the problem has {expected}")]
+    Globals {
+        /// Numbers given.
+        got: usize,
+        /// Numbers expected.
+        expected: usize,
+    },
+    /// Fewer rows than one sample.
+    #[error("{rows} correspondences, a sample needs {needed}")]
+    TooFew {
+        /// Rows given.
+        rows: usize,
+        /// Rows in a sample.
+        needed: usize,
+    },
+    /// A NaN or infinite number, and where.
+    #[error("{0}")]
+    NonFinite(NonFiniteParameter),
+    /// No sample gave a validated model.
+    #[error("no sample of {iterations} gave a validated model")]
+    NoModel {
+        /// Samples drawn.
+        iterations: usize,
+    },
+}
+
+/// The row equations of one row (`row`: its numbers, `globals`: the global numbers) at `x`,
+/// written into `f` (the first `equations_per_row` entries matter), with their Jacobian rows in
+/// `j` when asked. `None` for rows or globals of the wrong length.
+fn row_equations<Q, const NX: usize, const NF: usize, const NP: usize>(
+    x: &SVector<f64, NX>,
+    row: &[f64],
+    globals: &[f64],
+    f: &mut SVector<f64, NF>,
+    j: Option<&mut SMatrix<f64, NF, NX>>,
+) -> Option<usize>
+where
+    Q: Problem<NX, NF, NP> + ProblemLayout,
+{
+    let layout = Q::LAYOUT;
+    if row.len() != layout.per_row || globals.len() != layout.globals_len() || layout.rows == 0 {
+        return None;
+    }
+    let mut p = SVector::<f64, NP>::zeros();
+    for r in 0..layout.rows {
+        p.as_mut_slice()[r * layout.per_row..(r + 1) * layout.per_row].copy_from_slice(row);
+    }
+    p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(globals);
+    match j {
+        Some(j) => Q::residual_jacobian(x, &p, f, j),
+        None => Q::residual(x, &p, f),
+    }
+    Some(layout.equations_per_row)
+}
+
+/// The default per-correspondence error: the largest absolute residual of the row's equations
+/// at `x` (the problem's algebraic units); infinite for a row of the wrong length or a
+/// non-finite residual.
+pub fn row_residual<Q, const NX: usize, const NF: usize, const NP: usize>(x: &SVector<f64, NX>, row: &[f64], globals: &[f64]) -> f64
+where
+    Q: Problem<NX, NF, NP> + ProblemLayout,
+{
+    let mut f = SVector::<f64, NF>::zeros();
+    match row_equations::<Q, NX, NF, NP>(x, row, globals, &mut f, None) {
+        Some(epr) => {
+            let e = f.iter().take(epr).fold(0.0f64, |m, v| m.max(v.abs()));
+            if e.is_nan() {
+                f64::INFINITY
+            } else {
+                e
+            }
+        }
+        None => f64::INFINITY,
+    }
+}
+
+/// Gauss-Newton iterations of the local optimization.
+const LO_ITERATIONS: usize = 10;
+
+/// The RANSAC view of a solver: rows in, validated sample solutions out.
+struct Samples<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    solver: &'a Solver<S, NX, NF, NP, NC, ND>,
+    globals: &'a [f64],
+    threshold: f64,
+    sizes: PhantomData<fn() -> [(); NC]>,
+}
+
+impl<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Estimator
+    for Samples<'a, S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    type Datum = &'a [f64];
+    type Model = SVector<f64, NX>;
+
+    fn sample_size(&self) -> usize {
+        S::Data::LAYOUT.rows
+    }
+
+    fn solve(&self, data: &[&'a [f64]], indices: &[usize], out: &mut Vec<SVector<f64, NX>>) {
+        let layout = S::Data::LAYOUT;
+        let mut p = SVector::<f64, ND>::zeros();
+        for (k, &i) in indices.iter().enumerate() {
+            p.as_mut_slice()[k * layout.per_row..(k + 1) * layout.per_row].copy_from_slice(data[i]);
+        }
+        p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(self.globals);
+        if let Ok(s) = self.solver.run(&p, false) {
+            out.push(s.x);
+        }
+    }
+
+    fn residual(&self, x: &SVector<f64, NX>, row: &&'a [f64]) -> f64 {
+        self.solver.problem().row_error(x, row, self.globals)
+    }
+
+    /// Gauss-Newton with a Cauchy loss on the inliers' row equations, then back onto the
+    /// equations without parameters.
+    fn refine(&self, x0: &SVector<f64, NX>, data: &[&'a [f64]], inliers: &[usize]) -> Option<SVector<f64, NX>> {
+        let c2 = self.threshold * self.threshold;
+        let cost = |x: &SVector<f64, NX>| -> f64 {
+            let mut f = SVector::<f64, NF>::zeros();
+            inliers
+                .iter()
+                .map(|&i| match row_equations::<S::Tracked, NX, NF, NP>(x, data[i], self.globals, &mut f, None) {
+                    Some(epr) => (0..epr).map(|k| (1.0 + f[k] * f[k] / c2).ln()).sum::<f64>(),
+                    None => f64::INFINITY,
+                })
+                .sum()
+        };
+        let mut x = *x0;
+        let mut current = cost(&x);
+        let (mut f, mut j) = (SVector::<f64, NF>::zeros(), SMatrix::<f64, NF, NX>::zeros());
+        for _ in 0..LO_ITERATIONS {
+            let mut h = SMatrix::<f64, NX, NX>::zeros();
+            let mut g = SVector::<f64, NX>::zeros();
+            for &i in inliers {
+                let epr = row_equations::<S::Tracked, NX, NF, NP>(&x, data[i], self.globals, &mut f, Some(&mut j))?;
+                for k in 0..epr {
+                    // Cauchy weight (iteratively reweighted least squares).
+                    let w = 1.0 / (1.0 + f[k] * f[k] / c2);
+                    let row = j.row(k);
+                    h += w * row.transpose() * row;
+                    g += w * f[k] * row.transpose();
+                }
+            }
+            // A little damping: unit-norm unknowns leave directions with no curvature.
+            let damping = 1e-9 * (1.0 + h.diagonal().amax());
+            h += SMatrix::<f64, NX, NX>::identity() * damping;
+            let step = h.cholesky()?.solve(&g);
+            let moved = simhc::onto_parameter_free::<S::Tracked, NX, NF, NP>(&(x - step), 1e-12, 8).ok()?;
+            let next = cost(&moved);
+            if next.is_nan() || next >= current {
+                break;
+            }
+            let small = (moved - x).amax() <= 1e-12 * (1.0 + x.amax());
+            (x, current) = (moved, next);
+            if small {
+                break;
+            }
+        }
+        x.iter().all(|v| v.is_finite()).then_some(x)
+    }
+}
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Solver<S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    /// A robust estimate from `rows` (any number of correspondences, `per_row` numbers each in
+    /// the data layout's order, row after row) and the global numbers `globals` ([module
+    /// docs](self)). `options.threshold` is in the units of [`DeclaredProblem::row_error`].
+    pub fn estimate(
+        &self,
+        rows: &[f64],
+        globals: &[f64],
+        options: &RansacOptions,
+    ) -> Result<(SVector<f64, NX>, EstimateInfo), EstimateError> {
+        let layout = S::Data::LAYOUT;
+        let per_row = layout.per_row;
+        if per_row == 0 || rows.len() % per_row != 0 {
+            return Err(EstimateError::Length { len: rows.len(), per_row });
+        }
+        if globals.len() != layout.globals_len() {
+            return Err(EstimateError::Globals { got: globals.len(), expected: layout.globals_len() });
+        }
+        let n = rows.len() / per_row;
+        if n < layout.rows {
+            return Err(EstimateError::TooFew { rows: n, needed: layout.rows });
+        }
+        if let Some(index) = rows.iter().position(|v| !v.is_finite()) {
+            let mut at = NonFiniteParameter::locate(&layout, index % per_row);
+            (at.row, at.index) = (Some(index / per_row), index);
+            return Err(EstimateError::NonFinite(at));
+        }
+        if let Some(k) = globals.iter().position(|v| !v.is_finite()) {
+            return Err(EstimateError::NonFinite(NonFiniteParameter::locate(&layout, layout.rows * per_row + k)));
+        }
+        let data: Vec<&[f64]> = rows.chunks_exact(per_row).collect();
+        let samples = Samples::<S, NX, NF, NP, NC, ND> { solver: self, globals, threshold: options.threshold, sizes: PhantomData };
+        let r = ransac(&samples, &data, options).ok_or(EstimateError::NoModel { iterations: options.max_iterations })?;
+        let info = EstimateInfo {
+            iterations: r.iterations,
+            hypotheses: r.hypotheses,
+            inlier_ratio: r.inlier_ratio(),
+            inliers: r.inliers,
+            inlier_mask: r.inlier_mask,
+            score: r.score,
+            refinements: r.refinements,
+        };
+        Ok((r.model, info))
+    }
+}

@@ -211,6 +211,17 @@ impl Coplanarity {
     }
 }
 
+/// The angle (radians) between the rig-1 bearing `f` and the plane of its match's ray and the
+/// baseline: the correspondence's error under the pose `(r, t)`.
+fn plane_angle(r: &Matrix3<f64>, t: &Vector3<f64>, [f, v, fp, vp]: &[Vector3<f64>; 4]) -> f64 {
+    let n = (r * fp).cross(&(r * vp + t - v));
+    if n.norm() > 0.0 {
+        (f.dot(&n) / n.norm()).abs().asin()
+    } else {
+        0.0
+    }
+}
+
 impl Validator<Params, 7> for Coplanarity {
     /// (correspondences met behind a rig, largest angle to the plane in radians)
     type Check = (usize, f64);
@@ -221,8 +232,7 @@ impl Validator<Params, 7> for Coplanarity {
         for i in 0..7 {
             let [f, v, fp, vp] = row(p, i);
             let (g, c2) = (r * fp, r * vp + t);
-            let n = g.cross(&(c2 - v));
-            let angle = if n.norm() > 0.0 { (f.dot(&n) / n.norm()).abs().asin() } else { 0.0 };
+            let angle = plane_angle(&r, &t, &[f, v, fp, vp]);
             // Closest points of the two rays: v + lambda f and c2 + mu g.
             let (b, w) = (f.dot(&g), v - c2);
             let denom = 1.0 - b * b;
@@ -300,5 +310,20 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
     }
     fn all_roots(&self) -> Option<&dyn AllRoots<7, 84>> {
         Some(&self.all_roots)
+    }
+    /// The robust estimator's error: the angle (radians) between `f` and the plane of its
+    /// match's ray and the baseline, as the validator measures it.
+    fn row_error(&self, x: &Unknowns, row: &[f64], _globals: &[f64]) -> f64 {
+        if row.len() != 12 {
+            return f64::INFINITY;
+        }
+        let (r, t) = pose(x);
+        let fields = std::array::from_fn(|k| Vector3::new(row[3 * k], row[3 * k + 1], row[3 * k + 2]));
+        let e = plane_angle(&r, &t, &fields);
+        if e.is_nan() {
+            f64::INFINITY
+        } else {
+            e
+        }
     }
 }

@@ -2,8 +2,9 @@
 //! [`Solver::estimate`]`(rows, globals, &options) -> (x, info)`.
 //!
 //! - **Samples** are as many rows as the problem's data instance has (the tracked rows and the
-//!   rows that validate them, e.g. 6 + 1). Each is solved by the shipped schedule *without* the
-//!   all-roots fallback: a sample that does not validate costs a few paths and yields no model.
+//!   rows that validate them, e.g. 6 + 1). Each gets the first attempt of the shipped schedule
+//!   only ([`crate::solver::sample_schedule`]: Gauss-Newton from the learned start) and no
+//!   fallback: a sample that does not validate at once yields no model.
 //! - **Scoring**: MSAC on the problem's per-correspondence error
 //!   ([`DeclaredProblem::row_error`]; by default the largest absolute row residual,
 //!   [`row_residual`]).
@@ -19,7 +20,7 @@
 //! row written into every row slot (its first row's equations are the row's).
 
 use crate::declared::DeclaredProblem;
-use crate::solver::Solver;
+use crate::solver::{sample_schedule, Solver};
 use nalgebra::{SMatrix, SVector};
 use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::ransac::{ransac, Estimator, RansacOptions};
@@ -167,7 +168,7 @@ where
             p.as_mut_slice()[k * layout.per_row..(k + 1) * layout.per_row].copy_from_slice(data[i]);
         }
         p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(self.globals);
-        if let Ok(s) = self.solver.run(&p, false) {
+        if let Ok(s) = self.solver.run(&p, sample_schedule(S::REFINES), false) {
             out.push(s.x);
         }
     }

@@ -48,6 +48,14 @@ pub fn shipped_schedule(refines: bool) -> &'static [Attempt] {
     }
 }
 
+/// The attempts on a RANSAC sample: the first of [`shipped_schedule`] only (Gauss-Newton from
+/// the learned start, on all rows where the problem refines): most samples hold an outlier and
+/// no attempt validates them, and among the many samples one that is all inliers and in the
+/// basin comes soon, so a sample that does not validate at once is dropped.
+pub fn sample_schedule(refines: bool) -> &'static [Attempt] {
+    &shipped_schedule(refines)[..1]
+}
+
 /// A problem's learned-start input rows: its own ([`DeclaredProblem::input_rows`]) or its data
 /// layout's. Shares the problem, so a solver that holds it is `Send + Sync` when the problem is.
 pub struct ProblemRows<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
@@ -192,14 +200,16 @@ where
         Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
         SolveError<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
     > {
-        self.run(p, true)
+        self.run(p, shipped_schedule(S::REFINES), true)
     }
 
-    /// A solve with or without the all-roots fallback (a RANSAC sample goes without).
+    /// A solve with these attempts, with or without the all-roots fallback (a RANSAC sample
+    /// goes without).
     #[allow(clippy::type_complexity)]
     pub(crate) fn run(
         &self,
         p: &SVector<f64, ND>,
+        schedule: &[Attempt],
         fallback: bool,
     ) -> Result<
         Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
@@ -210,8 +220,8 @@ where
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &self.learned, problem: &self.problem };
         let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 2] = [&self.learned, &refined];
         let all_roots = self.problem.all_roots().filter(|r| fallback && r.has_start_system()).map(AllRootsFallback);
-        let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &self.validator)
-            .with_schedule(shipped_schedule(S::REFINES));
+        let mut pipeline =
+            Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &self.validator).with_schedule(schedule);
         if let Some(f) = &all_roots {
             pipeline = pipeline.with_fallback(f);
         }

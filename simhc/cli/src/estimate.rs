@@ -10,7 +10,8 @@
 //!   [`row_residual`]).
 //! - **Local optimization** (LO-RANSAC) every time a better model appears, and on the final
 //!   model: Gauss-Newton with a Cauchy loss on the row equations of all inliers, whatever their
-//!   count, then the start put back on the equations without parameters
+//!   count, each row scaled to the problem's error, then put back on the equations without
+//!   parameters
 //!   ([`simhc::onto_parameter_free`]); kept when it lowers the MSAC cost.
 //! - **Stopping**: the exact rule of [`simhc::ransac`] (a sample drawn without replacement),
 //!   between [`RansacOptions::min_iterations`] and [`RansacOptions::max_iterations`];
@@ -177,17 +178,19 @@ where
         self.solver.problem().row_error(x, row, self.globals)
     }
 
-    /// Gauss-Newton with a Cauchy loss on the inliers' row equations, then back onto the
-    /// equations without parameters.
+    /// Gauss-Newton with a Cauchy loss on the inliers' errors, then back onto the equations
+    /// without parameters. Each row's equations are scaled so that their residual measures the
+    /// problem's error ([`DeclaredProblem::row_error`], the unit of the threshold and of the
+    /// Cauchy scale): a first-order geometric error from the algebraic one.
     fn refine(&self, x0: &SVector<f64, NX>, data: &[&'a [f64]], inliers: &[usize]) -> Option<SVector<f64, NX>> {
         let c2 = self.threshold * self.threshold;
+        let problem = self.solver.problem();
         let cost = |x: &SVector<f64, NX>| -> f64 {
-            let mut f = SVector::<f64, NF>::zeros();
             inliers
                 .iter()
-                .map(|&i| match row_equations::<S::Tracked, NX, NF, NP>(x, data[i], self.globals, &mut f, None) {
-                    Some(epr) => (0..epr).map(|k| (1.0 + f[k] * f[k] / c2).ln()).sum::<f64>(),
-                    None => f64::INFINITY,
+                .map(|&i| {
+                    let e = problem.row_error(x, data[i], self.globals);
+                    (1.0 + e * e / c2).ln()
                 })
                 .sum()
         };
@@ -199,9 +202,14 @@ where
             let mut g = SVector::<f64, NX>::zeros();
             for &i in inliers {
                 let epr = row_equations::<S::Tracked, NX, NF, NP>(&x, data[i], self.globals, &mut f, Some(&mut j))?;
+                let e = problem.row_error(&x, data[i], self.globals);
+                let algebraic = f.iter().take(epr).fold(0.0f64, |m, v| m.max(v.abs()));
+                // Scale to the problem's error where both are measurable; else leave as is.
+                let scale = if algebraic > 0.0 && e.is_finite() && e > 0.0 { e / algebraic } else { 1.0 };
+                // Cauchy weight (iteratively reweighted least squares) on the scaled residual.
                 for k in 0..epr {
-                    // Cauchy weight (iteratively reweighted least squares).
-                    let w = 1.0 / (1.0 + f[k] * f[k] / c2);
+                    let r = scale * f[k];
+                    let w = scale * scale / (1.0 + r * r / c2);
                     let row = j.row(k);
                     h += w * row.transpose() * row;
                     g += w * f[k] * row.transpose();

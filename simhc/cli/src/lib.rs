@@ -9,6 +9,9 @@
 //! }
 //! ```
 //!
+//! The same registration is a library value: [`Solver`] (built once, `solve`, `solve_batch`,
+//! and the robust [`Solver::estimate`] over any number of correspondences with outliers).
+//!
 //! The `train` commands need the default feature `train` (the burn trainer); without it the
 //! crate builds without burn, and `bench`, `solve` and `monodromy` stay.
 

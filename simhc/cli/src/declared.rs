@@ -608,7 +608,7 @@ where
         let learned = solver.learned_start();
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
         let (target, simulator, validator) =
-            (FirstRows::<S::Tracked>::new(S::Data::LAYOUT), Generic(S::Tracked::default()), self.problem.validator(a.noise));
+            (FirstRows::<S::Tracked>::new(S::Data::LAYOUT), Generic(S::Tracked::default()), solver.validator());
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: learned, problem: &*self.problem };
         let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [learned, &refined, &random];
         let has_refine = S::REFINES;
@@ -621,7 +621,7 @@ where
         let rand = 2;
         let score = self.score();
         let row = |name: &str, schedule: &[Attempt], with_fallback: bool, trials: &[(SVector<f64, ND>, SVector<f64, NX>)]| {
-            let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &validator)
+            let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, validator)
                 .with_schedule(schedule)
                 .with_options(PipelineOptions { fallback: with_fallback, ..PipelineOptions::default() });
             if let (true, Some(f)) = (with_fallback, &fallback) {

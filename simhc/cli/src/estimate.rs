@@ -11,8 +11,7 @@
 //! - **Local optimization** (LO-RANSAC) every time a better model appears, and on the final
 //!   model: Gauss-Newton with a Cauchy loss on the row equations of all inliers, whatever their
 //!   count, each row scaled to the problem's error, then put back on the equations without
-//!   parameters
-//!   ([`simhc::onto_parameter_free`]); kept when it lowers the MSAC cost.
+//!   parameters ([`simhc::onto_parameter_free`]); kept when it lowers the MSAC cost.
 //! - **Stopping**: the exact rule of [`simhc::ransac`] (a sample drawn without replacement),
 //!   between [`RansacOptions::min_iterations`] and [`RansacOptions::max_iterations`];
 //!   [`RansacOptions::poselib`] gives PoseLib's defaults.
@@ -124,15 +123,18 @@ where
 {
     let mut f = SVector::<f64, NF>::zeros();
     match row_equations::<Q, NX, NF, NP>(x, row, globals, &mut f, None) {
-        Some(epr) => {
-            let e = f.iter().take(epr).fold(0.0f64, |m, v| m.max(v.abs()));
-            if e.is_nan() {
-                f64::INFINITY
-            } else {
-                e
-            }
-        }
+        Some(epr) => largest(&f, epr),
         None => f64::INFINITY,
+    }
+}
+
+/// The largest absolute value of the first `epr` entries of `f`; infinite when one is NaN.
+fn largest<const NF: usize>(f: &SVector<f64, NF>, epr: usize) -> f64 {
+    let e = f.iter().take(epr).fold(0.0f64, |m, v| m.max(v.abs()));
+    if e.is_nan() {
+        f64::INFINITY
+    } else {
+        e
     }
 }
 
@@ -203,9 +205,9 @@ where
             for &i in inliers {
                 let epr = row_equations::<S::Tracked, NX, NF, NP>(&x, data[i], self.globals, &mut f, Some(&mut j))?;
                 let e = problem.row_error(&x, data[i], self.globals);
-                let algebraic = f.iter().take(epr).fold(0.0f64, |m, v| m.max(v.abs()));
+                let algebraic = largest(&f, epr);
                 // Scale to the problem's error where both are measurable; else leave as is.
-                let scale = if algebraic > 0.0 && e.is_finite() && e > 0.0 { e / algebraic } else { 1.0 };
+                let scale = if algebraic > 0.0 && algebraic.is_finite() && e.is_finite() && e > 0.0 { e / algebraic } else { 1.0 };
                 // Cauchy weight (iteratively reweighted least squares) on the scaled residual.
                 for k in 0..epr {
                     let r = scale * f[k];

@@ -146,6 +146,12 @@ pub enum SolverError {
 pub type SolverStart<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> =
     LearnedStart<ProblemRows<S, NX, NF, NP, NC, ND>>;
 
+/// The check of a validator `V` of the data.
+pub type Check<V, const NX: usize, const ND: usize> = <V as Validator<SVector<f64, ND>, NX>>::Check;
+
+/// What a solve returns, for a problem whose validator is `V`.
+pub type Outcome<V, const NX: usize, const ND: usize> = Result<Solution<Check<V, NX, ND>, NX>, SolveError<Check<V, NX, ND>, NX>>;
+
 /// A declared problem's solver ([module docs](self)).
 pub struct Solver<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
 where
@@ -185,6 +191,11 @@ where
         &self.problem
     }
 
+    /// The validator of solutions (for the noise given at construction).
+    pub fn validator(&self) -> &S::Validator {
+        &self.validator
+    }
+
     /// The learned start.
     pub fn learned_start(&self) -> &SolverStart<S, NX, NF, NP, NC, ND> {
         &self.learned
@@ -192,29 +203,13 @@ where
 
     /// Solves the data `p` (all rows, the data layout's order): a validated solution or a
     /// typed error; a wrong answer is never returned as `Ok`.
-    #[allow(clippy::type_complexity)]
-    pub fn solve(
-        &self,
-        p: &SVector<f64, ND>,
-    ) -> Result<
-        Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
-        SolveError<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
-    > {
+    pub fn solve(&self, p: &SVector<f64, ND>) -> Outcome<S::Validator, NX, ND> {
         self.run(p, shipped_schedule(S::REFINES), true)
     }
 
     /// A solve with these attempts, with or without the all-roots fallback (a RANSAC sample
     /// goes without).
-    #[allow(clippy::type_complexity)]
-    pub(crate) fn run(
-        &self,
-        p: &SVector<f64, ND>,
-        schedule: &[Attempt],
-        fallback: bool,
-    ) -> Result<
-        Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
-        SolveError<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
-    > {
+    pub(crate) fn run(&self, p: &SVector<f64, ND>, schedule: &[Attempt], fallback: bool) -> Outcome<S::Validator, NX, ND> {
         let target = FirstRows::<S::Tracked>::new(S::Data::LAYOUT);
         let simulator = Generic(S::Tracked::default());
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &self.learned, problem: &self.problem };
@@ -234,19 +229,10 @@ where
     }
 
     /// [`Solver::solve`] on every element of `data`, in order, across rayon's threads.
-    #[allow(clippy::type_complexity)]
-    pub fn solve_batch(
-        &self,
-        data: &[SVector<f64, ND>],
-    ) -> Vec<
-        Result<
-            Solution<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
-            SolveError<<S::Validator as Validator<SVector<f64, ND>, NX>>::Check, NX>,
-        >,
-    >
+    pub fn solve_batch(&self, data: &[SVector<f64, ND>]) -> Vec<Outcome<S::Validator, NX, ND>>
     where
         Self: Sync,
-        <S::Validator as Validator<SVector<f64, ND>, NX>>::Check: Send,
+        Check<S::Validator, NX, ND>: Send,
     {
         data.par_iter().map(|p| self.solve(p)).collect()
     }

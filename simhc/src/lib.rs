@@ -5,12 +5,20 @@
 //! - [`scalar`]: the number type generated code is generic over (`f64`, `Complex<f64>`);
 //! - [`lanes`]: several rows evaluated at once (the SIMD form of generated row kernels);
 //! - [`problem`]: the traits of a compiled polynomial system `F(x; p)`;
-//! - [`simulator`]: online simulators, including the generic minimum-norm one.
+//! - [`simulator`]: online simulators, including the generic minimum-norm one;
+//! - [`tracker`], [`homotopy`], [`all_roots`], [`monodromy`]: path tracking, one path or all;
+//! - [`pipeline`], [`regressor`]: the learned start and the attempts of a solve;
+//! - [`solver`]: a declared problem's trait and its library solver and robust estimator
+//!   ([`ransac`]), over [`start_system`] files, [`input`] readers, [`frames`] and [`metrics`];
+//! - [`training`]: the learned start's training settings (the trainer is `simhc-regressor`).
 
 pub mod all_roots;
+pub mod frames;
 pub mod homotopy;
+pub mod input;
 pub mod lanes;
 pub mod layout;
+pub mod metrics;
 pub mod monodromy;
 pub mod pipeline;
 pub mod problem;
@@ -18,7 +26,10 @@ pub mod ransac;
 pub mod regressor;
 pub mod scalar;
 pub mod simulator;
+pub mod solver;
+pub mod start_system;
 pub mod tracker;
+pub mod training;
 
 pub use layout::{FieldKind, FieldLayout, FieldNorm, Layout, ProblemLayout};
 pub use problem::{

@@ -11,8 +11,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::path::simulator_hc;
 use simhc::pipeline::{AttemptError, Generic, PipelineOptions, StageTimes, StartProvider};
+use simhc::solver::RandomStart;
 use simhc::{onto_parameter_free, FieldNorm, MinNormSimulator, OnlineSimulator, ProblemLayout, SimulatorError};
-use simhc_cli::RandomStart;
 use simhc_problems::metrics::{quat_from_rotation, random_rotation_perturbation, rotation_error_deg, rotation_from_quat};
 
 #[simhc::simhc_problem]

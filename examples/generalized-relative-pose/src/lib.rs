@@ -11,10 +11,11 @@
 use nalgebra::{Matrix3, SVector, UnitQuaternion, Vector3, Vector4};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use simhc::frames::bearing_frame;
 use simhc::pipeline::path::gauss_newton;
 use simhc::pipeline::{Validator, Verdict};
-use simhc_cli::{AllRoots, CanonicalFrame, DeclaredProblem, LearnedStartConfig, Refinement, SquareSubsystem};
-use simhc_problems::frames::bearing_frame;
+use simhc::solver::{AllRoots, CanonicalFrame, DeclaredProblem, Refinement, SquareSubsystem};
+use simhc::training::LearnedStartConfig;
 
 /// 1. The declaration. `Grp7` is solved (6 rows determine the pose, the 7th validates);
 ///    `Grp6` is the square system of the start system and the all-roots fallback.

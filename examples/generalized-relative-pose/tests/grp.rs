@@ -66,7 +66,7 @@ fn the_sampler_and_the_frame_change_keep_the_truth_a_solution() {
 
 #[test]
 fn the_shipped_start_system_has_64_solutions_of_small_residual() {
-    let file = simhc_problems::start_systems::StartSystemFile::from_json(START_SYSTEM).expect("parses");
+    let file = simhc::start_system::StartSystemFile::from_json(START_SYSTEM).expect("parses");
     let start = file.start_system::<7, 72>().expect("sizes");
     assert_eq!(start.solutions.len(), 64);
     assert!(start.max_residual::<Grp6>() < 1e-9, "{}", start.max_residual::<Grp6>());
@@ -177,7 +177,7 @@ fn solve_reads_a_file_and_says_where_bad_input_is() {
 fn the_library_solver_solves_seeded_scenes_in_random_frames() {
     let seed = 31;
     println!("seed {seed}");
-    let solver = simhc_cli::Solver::new(GenRelPose::new()).expect("shipped weights");
+    let solver = simhc::solver::Solver::new(GenRelPose::new()).expect("shipped weights");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let scenes: Vec<(Params, Unknowns)> = (0..40)
         .map(|k| {
@@ -211,7 +211,7 @@ fn the_library_solver_solves_seeded_scenes_in_random_frames() {
     bad[12 * 4 + 7] = f64::NAN;
     let err = solver.solve(&bad).expect_err("NaN");
     assert!(
-        matches!(err, simhc_cli::SolveError::Input(_)) && err.to_string().contains("row 4") && err.to_string().contains("`fp`"),
+        matches!(err, simhc::solver::SolveError::Input(_)) && err.to_string().contains("row 4") && err.to_string().contains("`fp`"),
         "{err}"
     );
 }
@@ -221,7 +221,7 @@ fn the_library_solver_solves_seeded_scenes_in_random_frames() {
 fn the_robust_estimator_finds_the_pose_among_wrong_matches() {
     use nalgebra::Vector3;
     use rand::Rng;
-    use simhc_cli::DeclaredProblem;
+    use simhc::solver::DeclaredProblem;
     let seed = 41;
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -248,7 +248,7 @@ fn the_robust_estimator_finds_the_pose_among_wrong_matches() {
     let truth = SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z]);
     assert!(problem.row_error(&truth, &rows[12..24], &[]) < 1e-12, "an inlier's error at the truth is zero");
     assert!(problem.row_error(&truth, &rows[..12], &[]) > 1e-3, "a wrong match's is not");
-    let solver = simhc_cli::Solver::new(problem).expect("shipped weights");
+    let solver = simhc::solver::Solver::new(problem).expect("shipped weights");
     let options = simhc::ransac::RansacOptions { seed, max_iterations: 200, ..simhc::ransac::RansacOptions::poselib(1e-6) };
     let (x, info) = solver.estimate(&rows, &[], &options).expect("a pose");
     let [e_r, e_t] = errors(&x, &truth);

@@ -9,8 +9,10 @@
 //! }
 //! ```
 //!
-//! The same registration is a library value: [`Solver`] (built once, `solve`, `solve_batch`,
-//! and the robust [`Solver::estimate`] over any number of correspondences with outliers).
+//! The problem trait ([`simhc::solver::DeclaredProblem`]) and the library solver
+//! ([`simhc::solver::Solver`]: built once, `solve`, `solve_batch`, and the robust `estimate`
+//! over any number of correspondences with outliers) live in the runtime; this crate adapts
+//! them to commands.
 //!
 //! The `train` commands need the default feature `train` (the burn trainer); without it the
 //! crate builds without burn, and `bench`, `solve` and `monodromy` stay.
@@ -18,25 +20,15 @@
 pub mod app;
 pub mod builtin;
 pub mod declared;
-pub mod estimate;
 mod grps;
 mod plots;
-pub mod solver;
 mod stats;
 mod tracker_bench;
 mod upnp;
 
 pub use app::{progress_bar, App, Registration, Verb};
 pub use builtin::{Grps, TrackerBench, Upnp};
-pub use declared::{
-    AllRoots, CanonicalFrame, Declared, DeclaredProblem, FirstRows, FirstRowsError, RandomStart, Refinement, SquareSubsystem,
-};
-pub use estimate::{EstimateError, EstimateInfo};
-#[cfg(feature = "train")]
-pub use simhc_regressor::generic::LearnedStartConfig;
-#[cfg(feature = "train")]
-pub use simhc_regressor::TrainConfig;
-pub use solver::{Solution, SolveError, Solver, SolverError};
+pub use declared::Declared;
 
 /// The `simhc` application: the built-in problems and the tracker benchmark.
 pub fn simhc_app() -> App {

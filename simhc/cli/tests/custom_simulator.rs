@@ -5,8 +5,9 @@
 use nalgebra::SVector;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use simhc::solver::DeclaredProblem;
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
-use simhc_cli::{App, Declared, DeclaredProblem};
+use simhc_cli::{App, Declared};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 mod support;

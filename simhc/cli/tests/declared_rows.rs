@@ -6,7 +6,8 @@ use nalgebra::SVector;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::InputRows;
-use simhc_cli::{App, Declared, DeclaredProblem};
+use simhc::solver::DeclaredProblem;
+use simhc_cli::{App, Declared};
 use std::cell::Cell;
 use std::rc::Rc;
 

@@ -1,4 +1,4 @@
-//! A declared problem's solver as a library value ([`simhc_cli::Solver`]): built once, then
+//! A declared problem's solver as a library value ([`simhc::solver::Solver`]): built once, then
 //! called many times, from several threads, without heap allocation per solve; bad input is a
 //! typed error that says where, and data no solution explains never comes back as `Ok`.
 #![allow(unsafe_code)]
@@ -8,7 +8,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Validator, Verdict};
 use simhc::ransac::RansacOptions;
-use simhc_cli::{App, Declared, DeclaredProblem, EstimateError, SolveError, Solver};
+use simhc::solver::{DeclaredProblem, EstimateError, SolveError, Solver};
+use simhc_cli::{App, Declared};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 

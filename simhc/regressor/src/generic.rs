@@ -65,29 +65,8 @@ pub enum Standardize {
     AllBut(Vec<usize>),
 }
 
-/// Settings of [`train_learned_start`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct LearnedStartConfig {
-    /// Widths of the point layers (per row).
-    pub point_widths: Vec<usize>,
-    /// Widths of the hidden head layers.
-    pub head_widths: Vec<usize>,
-    /// Training scenes.
-    pub samples: usize,
-    /// Optimizer settings; `train.seed` also seeds the sampler.
-    pub train: TrainConfig,
-}
-
-impl Default for LearnedStartConfig {
-    fn default() -> Self {
-        Self {
-            point_widths: vec![64, 128, 128],
-            head_widths: vec![128],
-            samples: 50_000,
-            train: TrainConfig { learning_rate: 2e-3, final_learning_rate: 2e-5, ..TrainConfig::default() },
-        }
-    }
-}
+/// Settings of [`train_learned_start`] (plain data in the runtime).
+pub use simhc::training::LearnedStartConfig;
 
 /// Why training failed.
 #[derive(Debug, Error)]

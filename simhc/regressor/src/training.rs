@@ -17,28 +17,8 @@ use rand_chacha::ChaCha8Rng;
 use simhc_problems::metrics::{rotation_error_deg, rotation_from_quat};
 use std::time::Instant;
 
-/// Settings of [`train`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrainConfig {
-    /// Passes over the training set.
-    pub epochs: usize,
-    /// Samples per step (the last partial batch of an epoch is dropped).
-    pub batch_size: usize,
-    /// Adam learning rate at the start.
-    pub learning_rate: f64,
-    /// Learning rate at the end of the cosine schedule.
-    pub final_learning_rate: f64,
-    /// Seed of parameter initialization and shuffling.
-    pub seed: u64,
-    /// Show an indicatif progress bar (hidden anyway when stderr is not a terminal).
-    pub progress: bool,
-}
-
-impl Default for TrainConfig {
-    fn default() -> Self {
-        Self { epochs: 12, batch_size: 128, learning_rate: 4e-3, final_learning_rate: 4e-5, seed: 42, progress: true }
-    }
-}
+/// Settings of [`train`] (plain data in the runtime).
+pub use simhc::training::TrainConfig;
 
 /// Rotation-error statistics in degrees (the paper's `E_R`) over a set of predictions.
 #[derive(Debug, Clone, Copy, PartialEq)]

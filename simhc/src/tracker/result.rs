@@ -23,7 +23,7 @@ pub enum TrackError {
         /// Last accepted `t`.
         t: f64,
     },
-    /// An accepted point (or a Newton iterate in [`newton`] / the fixed schedule) exceeded
+    /// An accepted point (or a Newton iterate in [`super::newton`] / the fixed schedule) exceeded
     /// `max_norm`, or the adaptive step shrank to its minimum with corrector iterates beyond it:
     /// the path goes to infinity.
     #[error("path diverged to infinity at t = {t}")]
@@ -113,7 +113,7 @@ pub struct TrackStats {
     pub newton_iterations: usize,
     /// All Jacobian factorizations: corrector iterations plus predictor stages.
     pub factorizations: usize,
-    /// Drag steps taken by the adaptive tracker (see [`DragStep`]).
+    /// Drag steps taken by the adaptive tracker (see [`super::DragStep`]).
     pub drag_steps: usize,
 }
 
@@ -134,9 +134,9 @@ pub struct TrackResult<S: Scalar, const NX: usize> {
     pub t: f64,
     /// Work counters.
     pub stats: TrackStats,
-    /// Estimated error of `x` (weighted max-norm, see [`TrackerOptions`]).
+    /// Estimated error of `x` (weighted max-norm, see [`super::TrackerOptions`]).
     pub accuracy: f64,
-    /// Max-norm of [`Homotopy::validation_residual`] at `(x, 1)`: for a squared-up system the
+    /// Max-norm of [`crate::homotopy::Homotopy::validation_residual`] at `(x, 1)`: for a squared-up system the
     /// full system's residual.
     pub residual: f64,
 }

@@ -35,7 +35,7 @@ impl Validator<SVector<f64, 4>, 1> for Exact {
     }
 }
 
-impl simhc_cli::DeclaredProblem<1, 2, 3, { line::Line2::NC }, 4> for Line {
+impl simhc::solver::DeclaredProblem<1, 2, 3, { line::Line2::NC }, 4> for Line {
     type Tracked = line::Line2;
     type Data = line::Line2;
     type Validator = Exact;

@@ -17,7 +17,7 @@ fn main() -> Result<(), String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
     let doc: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?;
     let trials = doc["trials"].as_array().ok_or("no \"trials\" array")?;
-    let solver = simhc_cli::Solver::with_weights(GenRelPose::new(), WEIGHTS, noise).map_err(|e| e.to_string())?;
+    let solver = simhc::solver::Solver::with_weights(GenRelPose::new(), WEIGHTS, noise).map_err(|e| e.to_string())?;
     eprintln!("grp_robust: {} trials, threshold {threshold} rad, noise {noise} px, seed {seed}", trials.len());
     for (i, trial) in trials.iter().enumerate() {
         let rows: Vec<f64> = trial["rows"]

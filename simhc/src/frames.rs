@@ -1,5 +1,5 @@
-//! Canonical frames computed from the data alone, shared by the built-in regressors' features
-//! ([`crate::upnp::features`], [`crate::grps::features`]). A frame computed this way moves
+//! Canonical frames computed from the data alone, for a problem's learned-start features and
+//! its canonical frame (the built-ins' `features` modules use them). A frame computed this way moves
 //! with the data: a rigid change of the user's frame changes the canonical rotation and
 //! leaves the canonical coordinates the same, so a regressor never sees the user's choice of
 //! frame (up to rounding, and except where a spread is isotropic and its axes are not unique).
@@ -82,7 +82,7 @@ pub fn principal_axes(cov: &Matrix3<f64>, points: impl Iterator<Item = Vector3<f
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::upnp::scene::random_rotation;
+    use crate::metrics::{random_unit_quaternion, rotation_from_quat};
     use rand::{Rng, SeedableRng};
 
     #[test]
@@ -92,7 +92,7 @@ mod tests {
             let bearings: Vec<Vector3<f64>> = (0..8)
                 .map(|_| Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(1.0..4.0)))
                 .collect();
-            let q = random_rotation(&mut rng);
+            let q = rotation_from_quat(random_unit_quaternion(&mut rng));
             let v = bearing_frame(bearings.iter().copied()).unwrap();
             let w = bearing_frame(bearings.iter().map(|f| q * f)).unwrap();
             assert!((v * v.transpose() - Matrix3::identity()).amax() < 1e-12 && (v.determinant() - 1.0).abs() < 1e-12);

@@ -1,5 +1,5 @@
-//! Pose error metrics of the paper, the quaternion convention shared by the built-in problems,
-//! and random perturbations of a pose ("start = ground truth perturbed by theta").
+//! Pose error metrics of the paper, the quaternion convention of `Quat` unknowns (shared by the
+//! built-in problems) and random perturbations of a pose ("start = ground truth perturbed by theta").
 //!
 //! # Quaternion convention
 //!

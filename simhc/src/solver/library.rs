@@ -4,7 +4,7 @@
 //! command is this solver reading one file.
 //!
 //! ```ignore
-//! let solver = simhc_cli::Solver::new(GenRelPose::new())?;        // shipped weights, noise 0
+//! let solver = simhc::solver::Solver::new(GenRelPose::new())?;        // shipped weights, noise 0
 //! match solver.solve(&params) {
 //!     Ok(s) => println!("{}", s.x),                                // validated on all rows
 //!     Err(e) => eprintln!("{e}"),                                  // typed, flagged, never a solution
@@ -17,14 +17,16 @@
 //! when it ends validated and the problem's own hooks do not allocate (a
 //! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`).
 
-use crate::declared::{AllRootsFallback, Canon, DeclaredProblem, FirstRows, FirstRowsError, Refined};
-use nalgebra::SVector;
-use rayon::prelude::*;
-use simhc::pipeline::{
+use super::parts::{Canon, FirstRows, FirstRowsError, Refined};
+use super::problem::DeclaredProblem;
+use super::subsystem::AllRootsFallback;
+use crate::pipeline::{
     Attempt, AttemptError, Generic, InputRows, LayoutRows, LearnedStart, Method, Origin, Pipeline, PipelineError, StartProvider, Validator,
 };
-use simhc::regressor::{FoldedNetwork, RegressorError};
-use simhc::ProblemLayout;
+use crate::regressor::{FoldedNetwork, RegressorError};
+use crate::ProblemLayout;
+use nalgebra::SVector;
+use rayon::prelude::*;
 use std::fmt::Debug;
 use std::marker::PhantomData;
 use std::sync::Arc;

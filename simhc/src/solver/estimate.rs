@@ -3,7 +3,7 @@
 //!
 //! - **Samples** are as many rows as the problem's data instance has (the tracked rows and the
 //!   rows that validate them, e.g. 6 + 1). Each gets the first attempt of the shipped schedule
-//!   only ([`crate::solver::sample_schedule`]: Gauss-Newton from the learned start) and no
+//!   only ([`super::sample_schedule`]: Gauss-Newton from the learned start) and no
 //!   fallback: a sample that does not validate at once yields no model.
 //! - **Scoring**: MSAC on the problem's per-correspondence error
 //!   ([`DeclaredProblem::row_error`]; by default the largest absolute row residual,
@@ -11,20 +11,20 @@
 //! - **Local optimization** (LO-RANSAC) every time a better model appears, and on the final
 //!   model: Gauss-Newton with a Cauchy loss on the row equations of all inliers, whatever their
 //!   count, each row scaled to the problem's error, then put back on the equations without
-//!   parameters ([`simhc::onto_parameter_free`]); kept when it lowers the MSAC cost.
-//! - **Stopping**: the exact rule of [`simhc::ransac`] (a sample drawn without replacement),
+//!   parameters ([`crate::onto_parameter_free`]); kept when it lowers the MSAC cost.
+//! - **Stopping**: the exact rule of [`crate::ransac`] (a sample drawn without replacement),
 //!   between [`RansacOptions::min_iterations`] and [`RansacOptions::max_iterations`];
 //!   [`RansacOptions::poselib`] gives PoseLib's defaults.
 //!
 //! The row residual and its Jacobian come from the tracked instance's compiled code, with the
 //! row written into every row slot (its first row's equations are the row's).
 
-use crate::declared::DeclaredProblem;
-use crate::solver::{sample_schedule, Solver};
+use super::library::{sample_schedule, Solver};
+use super::problem::DeclaredProblem;
+use crate::pipeline::learned::NonFiniteParameter;
+use crate::ransac::{ransac, Estimator, RansacOptions};
+use crate::{Problem, ProblemLayout};
 use nalgebra::{SMatrix, SVector};
-use simhc::pipeline::learned::NonFiniteParameter;
-use simhc::ransac::{ransac, Estimator, RansacOptions};
-use simhc::{Problem, ProblemLayout};
 use std::marker::PhantomData;
 use thiserror::Error;
 
@@ -221,7 +221,7 @@ where
             let damping = 1e-9 * (1.0 + h.diagonal().amax());
             h += SMatrix::<f64, NX, NX>::identity() * damping;
             let step = h.cholesky()?.solve(&g);
-            let moved = simhc::onto_parameter_free::<S::Tracked, NX, NF, NP>(&(x - step), 1e-12, 8).ok()?;
+            let moved = crate::onto_parameter_free::<S::Tracked, NX, NF, NP>(&(x - step), 1e-12, 8).ok()?;
             let next = cost(&moved);
             if next.is_nan() || next >= current {
                 break;

@@ -1,0 +1,29 @@
+//! A declared problem's compiled solver as a library value.
+//!
+//! A problem implements [`DeclaredProblem`] (its compiled instances, a validator, a scene
+//! sampler, optional hooks); [`Solver`] assembles the solve from it once (weights, start
+//! system) and then solves any number of times from any thread, without heap allocation per
+//! validated solve; [`Solver::estimate`] is the robust estimator over correspondences with
+//! outliers. The `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same
+//! trait, and the built-in problems' toolkits ([`SquareSubsystem`] for the all-roots fallback,
+//! [`crate::start_system`] for its start system) live here too, so a problem library depends
+//! on the runtime only.
+//!
+//! - [`problem`]: the trait and its hook types;
+//! - [`parts`]: the parts a solve is assembled from (tracked parameters, random and refined
+//!   starts, the canonical frame);
+//! - [`subsystem`]: all roots of a square subsystem;
+//! - [`library`]: the solver, [`Solver`];
+//! - [`estimate`]: the robust estimator, [`Solver::estimate`].
+
+pub mod estimate;
+pub mod library;
+pub mod parts;
+pub mod problem;
+pub mod subsystem;
+
+pub use estimate::{row_residual, EstimateError, EstimateInfo};
+pub use library::{sample_schedule, shipped_schedule, Outcome, ProblemRows, Solution, SolveError, Solver, SolverError};
+pub use parts::{Canon, FirstRows, FirstRowsError, RandomStart, Refined};
+pub use problem::{CanonicalFrame, DeclaredProblem, Refinement, UnknownsMap};
+pub use subsystem::{AllRoots, AllRootsFallback, SquareSubsystem};

@@ -1,0 +1,138 @@
+//! The parts a solve is assembled from: the tracked parameters of the data ([`FirstRows`]),
+//! random starts for any layout ([`RandomStart`]), a learned start refined on all rows
+//! ([`Refined`]) and a problem's canonical frame as the pipeline's ([`Canon`]).
+
+use super::problem::{CanonicalFrame, DeclaredProblem, Refinement};
+use crate::layout::{FieldKind, Layout};
+use crate::pipeline::learned::NonFiniteParameter;
+use crate::pipeline::{Canonicalize, StartError, StartProvider, TargetParameters};
+use crate::ProblemLayout;
+use nalgebra::SVector;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::cell::RefCell;
+use std::marker::PhantomData;
+
+/// A problem's [`DeclaredProblem::canonicalize`] as the pipeline's [`Canonicalize`].
+pub struct Canon<'a, S, const NF: usize, const NP: usize, const NC: usize>(pub &'a S);
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Canonicalize<SVector<f64, ND>, NX>
+    for Canon<'_, S, NF, NP, NC>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    type Frame = CanonicalFrame<NX>;
+    type Canonical = SVector<f64, ND>;
+    fn canonicalize(&self, data: &SVector<f64, ND>) -> Option<(CanonicalFrame<NX>, SVector<f64, ND>)> {
+        self.0.canonicalize(data).map(|(p, frame)| (frame, p))
+    }
+    fn to_user(&self, frame: &CanonicalFrame<NX>, x: &SVector<f64, NX>) -> SVector<f64, NX> {
+        (frame.to_user)(x)
+    }
+}
+
+/// The tracked parameters of the data: its first `Q::LAYOUT.rows` rows and its globals, after a
+/// check that every value is finite (an error names the row and field of `data_layout`).
+pub struct FirstRows<Q> {
+    data_layout: Layout,
+    problem: PhantomData<fn() -> Q>,
+}
+
+impl<Q: ProblemLayout> FirstRows<Q> {
+    /// The first rows of data laid out as `data_layout`.
+    pub fn new(data_layout: Layout) -> Self {
+        Self { data_layout, problem: PhantomData }
+    }
+}
+
+/// Why [`FirstRows`] cannot make the tracked parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum FirstRowsError {
+    /// A parameter of the data is NaN or infinite.
+    #[error(transparent)]
+    NonFinite(#[from] NonFiniteParameter),
+    /// The tracked instance is not a first-rows part of the data.
+    #[error("the tracked instance has {tracked} parameters, which are not the first rows and the globals of the data's {data}")]
+    Sizes {
+        /// Parameters of the tracked instance.
+        tracked: usize,
+        /// Parameters of the data.
+        data: usize,
+    },
+}
+
+impl<Q: ProblemLayout, const NP: usize, const ND: usize> TargetParameters<SVector<f64, ND>, NP> for FirstRows<Q> {
+    type Error = FirstRowsError;
+    fn params(&self, data: &SVector<f64, ND>) -> Result<SVector<f64, NP>, FirstRowsError> {
+        if let Some(index) = data.iter().position(|v| !v.is_finite()) {
+            return Err(NonFiniteParameter::locate(&self.data_layout, index).into());
+        }
+        Q::LAYOUT.first_rows(data.as_slice()).ok_or(FirstRowsError::Sizes { tracked: NP, data: ND })
+    }
+}
+
+/// A random start for any layout: a uniformly random unit quaternion for each quaternion
+/// unknown, a random direction for each field whose norm an equation fixes, zero for the others
+/// (the paper's "Rand" rows).
+pub struct RandomStart {
+    layout: Layout,
+    rng: RefCell<ChaCha8Rng>,
+}
+
+impl RandomStart {
+    /// Random starts for `layout`, seeded.
+    pub fn new(layout: Layout, seed: u64) -> Self {
+        Self { layout, rng: RefCell::new(ChaCha8Rng::seed_from_u64(seed)) }
+    }
+}
+
+impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for RandomStart {
+    fn name(&self) -> &'static str {
+        "random"
+    }
+    fn start(&self, _: &D) -> Result<SVector<f64, NX>, StartError> {
+        let mut x = SVector::<f64, NX>::zeros();
+        let mut rng = self.rng.borrow_mut();
+        for f in self.layout.unknowns.iter().filter(|f| f.kind == FieldKind::Quat) {
+            let q = crate::metrics::random_unit_quaternion(&mut *rng);
+            x.as_mut_slice()[f.offset..f.offset + 4].copy_from_slice(&q);
+        }
+        // A field whose norm an equation fixes (`t.dot(t) - 1`): a random direction on its
+        // sphere, since zero cannot be normalized.
+        for n in self.layout.norms {
+            let f = &self.layout.unknowns[n.field];
+            if f.kind != FieldKind::Quat {
+                x.as_mut_slice()[f.offset..f.offset + f.kind.len()].iter_mut().for_each(|v| *v = rng.random_range(-1.0..1.0));
+            }
+        }
+        if !self.layout.normalize_unknowns(x.as_mut_slice()) {
+            return Err(StartError { provider: "random", reason: "a random field of zero norm".into() });
+        }
+        Ok(x)
+    }
+}
+
+/// The start of `inner`, refined by [`DeclaredProblem::refine`] (an error when that fails).
+pub struct Refined<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+    pub inner: &'a dyn StartProvider<SVector<f64, ND>, NX>,
+    pub problem: &'a S,
+}
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
+    for Refined<'_, S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    fn name(&self) -> &'static str {
+        "learned, refined on all rows"
+    }
+    fn start(&self, p: &SVector<f64, ND>) -> Result<SVector<f64, NX>, StartError> {
+        let x0 = self.inner.start(p)?;
+        let fail = |reason: &str| StartError { provider: "refined", reason: reason.to_string() };
+        match self.problem.refine(p, &x0) {
+            Refinement::Converged(x) => Ok(x),
+            Refinement::Failed => Err(fail("Gauss-Newton on all rows did not converge")),
+            Refinement::Unsupported => Err(fail("the problem has no refinement on all rows")),
+        }
+    }
+}

@@ -1,0 +1,148 @@
+//! The problem trait of a compiled solver: what a declared problem brings (its compiled
+//! instances, a validator, a scene sampler and the errors a bench reports) and its optional
+//! hooks (refinement on all rows, a canonical frame, learned-start rows, an all-roots
+//! fallback, a per-correspondence error). [`super::Solver`] assembles a solve from it; the
+//! `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same trait.
+
+use super::subsystem::AllRoots;
+use crate::pipeline::{InputRows, Validator};
+use crate::training::LearnedStartConfig;
+use crate::{CoefficientForm, OnlineSimulator, ParamDerivative, ProblemLayout};
+use nalgebra::SVector;
+use rand_chacha::ChaCha8Rng;
+
+/// A declared problem: what its solver, its robust estimator and its commands need.
+///
+/// Two compiled instances of the declaration take part: `Data`, whose rows are the user's
+/// correspondences (all of them: the learned start reads them, the validator checks them), and
+/// `Tracked`, the system of the homotopy paths: the same declaration on the first rows. When
+/// some rows only validate (6 correspondences determine a relative pose, a 7th checks it),
+/// `Tracked` is the square instance and its paths are consistent from start to end; a path of
+/// an overdetermined system follows least-squares points of inconsistent intermediate systems
+/// and often fails. Without validation rows, both are the same instance.
+///
+/// `NX, NF, NP, NC` are the sizes of `Tracked` (unknowns, equations, parameters, coefficients:
+/// `Foo6::NC`); `ND` is the parameter count of `Data`.
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` does not implement `simhc::solver::DeclaredProblem` with these sizes",
+    label = "not a declared problem of sizes NX = {NX}, NF = {NF}, NP = {NP}, NC = {NC}, ND = {ND}",
+    note = "implement `simhc::solver::DeclaredProblem<NX, NF, NP, NC, ND>` for it: the sizes of its tracked instance, then the parameter count of its data instance"
+)]
+pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>: 'static {
+    /// The instance whose paths are tracked: the first rows of the data (`#[simhc_problem]`).
+    /// Its own [`OnlineSimulator`] builds the start problems: the generated minimum-norm one,
+    /// or yours with `#[simhc_problem(simulator = custom)]`.
+    type Tracked: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP> + ProblemLayout + OnlineSimulator<NX, NF, NP> + Default;
+    /// The instance of all the user's rows (its layout reads input files and feeds the learned
+    /// start).
+    type Data: ProblemLayout;
+    /// What decides that an end point is a solution of all the data.
+    type Validator: Validator<SVector<f64, ND>, NX>;
+    /// The name on the command line (lower case).
+    const NAME: &'static str;
+    /// One line for `--help`.
+    const ABOUT: &'static str;
+    /// Names of the errors [`DeclaredProblem::errors`] returns (bench columns).
+    const ERRORS: &'static [&'static str];
+    /// Whether [`DeclaredProblem::refine`] is implemented: the shipped schedule then starts
+    /// with Gauss-Newton on all rows, and bench adds that row.
+    const REFINES: bool = false;
+
+    /// A scene with noise of size `noise` (the problem's unit, for example pixels): the
+    /// parameters of all its rows (`Data`) and its true unknowns.
+    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, ND>, SVector<f64, NX>);
+    /// The validator for data with noise of size `noise`.
+    fn validator(&self, noise: f64) -> Self::Validator;
+    /// The errors of an estimate against the truth, in the order of [`DeclaredProblem::ERRORS`].
+    fn errors(&self, x: &SVector<f64, NX>, truth: &SVector<f64, NX>) -> Vec<f64>;
+    /// Whether errors of [`DeclaredProblem::errors`] count as a success.
+    fn correct(&self, errors: &[f64]) -> bool;
+
+    /// Gauss-Newton on all the data's rows from `x0` (typically one line:
+    /// `crate::pipeline::path::gauss_newton::<Self::Data, NX, NFD, ND>(x0, p, &Default::default())`).
+    /// With validation rows this is far more selective than Gauss-Newton on the tracked
+    /// rows: an extra row removes the basins of the other roots.
+    /// [`Refinement::Unsupported`] (the default): the Gauss-Newton attempts run on the tracked
+    /// rows. Set [`DeclaredProblem::REFINES`] when you implement it.
+    fn refine(&self, _p: &SVector<f64, ND>, _x0: &SVector<f64, NX>) -> Refinement<NX> {
+        Refinement::Unsupported
+    }
+    /// The data in a frame computed from the data itself (centred, rotated, scaled), with the
+    /// maps of the unknowns into and out of it. The learned start is trained and run in that
+    /// frame, the paths are tracked there, and the solution is validated again in the user's
+    /// frame; so a learned start trained on one sampler holds on data in any frame. `None`
+    /// (the default): the data is used as given.
+    fn canonicalize(&self, _p: &SVector<f64, ND>) -> Option<(SVector<f64, ND>, CanonicalFrame<NX>)> {
+        None
+    }
+    /// The learned start's input rows, in training and in use (of the data in the canonical
+    /// frame, if [`DeclaredProblem::canonicalize`] makes one). `None` (the default): the data
+    /// layout's rows, `[row parameters, global parameters]` per row
+    /// ([`crate::pipeline::LayoutRows`]). Implement [`InputRows`] when other numbers make
+    /// better features (distances, ratios, invariants); weights trained on one kind of rows do
+    /// not load with another.
+    fn input_rows(&self) -> Option<&dyn InputRows> {
+        None
+    }
+    /// Training settings of the learned start (`train` overrides samples, epochs and seed):
+    /// plain data, the trainer is `simhc-regressor`.
+    fn training(&self) -> LearnedStartConfig {
+        LearnedStartConfig::default()
+    }
+    /// The shipped weights (for example `include_bytes!`), used when no `--weights` is given.
+    fn weights(&self) -> Option<&'static [u8]> {
+        None
+    }
+    /// The same scene seen in random frames (random rigid changes of every frame), for
+    /// `bench --random-frames`; `None`: the problem has no such change.
+    fn move_frames(
+        &self,
+        _rng: &mut ChaCha8Rng,
+        _p: &SVector<f64, ND>,
+        _x: &SVector<f64, NX>,
+    ) -> Option<(SVector<f64, ND>, SVector<f64, NX>)> {
+        None
+    }
+    /// All roots of a square subsystem: the pipeline's fallback, the All-roots bench row and
+    /// `monodromy` ([`super::SquareSubsystem`]).
+    fn all_roots(&self) -> Option<&dyn AllRoots<NX, ND>> {
+        None
+    }
+    /// The error of one correspondence under `x`, which the robust estimator
+    /// ([`super::Solver::estimate`]) compares with its threshold: `row` holds the row's numbers
+    /// in the layout's order, `globals` the global ones. Default: the largest absolute residual
+    /// of the row's equations ([`super::estimate::row_residual`]); a geometric error (angular,
+    /// Sampson) makes the threshold mean the same for every correspondence.
+    fn row_error(&self, x: &SVector<f64, NX>, row: &[f64], globals: &[f64]) -> f64 {
+        super::estimate::row_residual::<Self::Tracked, NX, NF, NP>(x, row, globals)
+    }
+}
+
+/// A map of the unknowns from one frame to another.
+pub type UnknownsMap<const NX: usize> = Box<dyn Fn(&SVector<f64, NX>) -> SVector<f64, NX>>;
+
+/// The maps of the unknowns between the user's frame and a canonical frame of the data
+/// ([`DeclaredProblem::canonicalize`]).
+pub struct CanonicalFrame<const NX: usize> {
+    /// User's unknowns to canonical ones.
+    pub to_canonical: UnknownsMap<NX>,
+    /// Canonical unknowns to the user's.
+    pub to_user: UnknownsMap<NX>,
+}
+
+/// What [`DeclaredProblem::refine`] did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Refinement<const NX: usize> {
+    /// The problem has no refinement on all rows.
+    Unsupported,
+    /// Converged here.
+    Converged(SVector<f64, NX>),
+    /// Did not converge.
+    Failed,
+}
+
+impl<const NX: usize, E> From<Result<SVector<f64, NX>, E>> for Refinement<NX> {
+    fn from(r: Result<SVector<f64, NX>, E>) -> Self {
+        r.map_or(Refinement::Failed, Refinement::Converged)
+    }
+}

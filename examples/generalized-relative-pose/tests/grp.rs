@@ -214,6 +214,12 @@ fn the_library_solver_solves_seeded_scenes_in_random_frames() {
         matches!(err, simhc::solver::SolveError::Input(_)) && err.to_string().contains("row 4") && err.to_string().contains("`fp`"),
         "{err}"
     );
+    // A ray origin: the canonical frame centres the origins, so a NaN there would spread to
+    // every row if the data were not checked before the frame is made.
+    let mut bad = data[0];
+    bad[12 * 2 + 9] = f64::INFINITY;
+    let err = solver.solve(&bad).expect_err("infinity");
+    assert!(err.to_string().contains("row 2") && err.to_string().contains("`vp`"), "{err}");
 }
 
 /// The robust estimator on 60 correspondences of two rigs, 20 % of them wrong matches.

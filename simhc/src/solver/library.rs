@@ -20,6 +20,7 @@
 use super::parts::{Canon, FirstRows, FirstRowsError, Refined};
 use super::problem::DeclaredProblem;
 use super::subsystem::AllRootsFallback;
+use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{
     Attempt, AttemptError, Generic, InputRows, LayoutRows, LearnedStart, Method, Origin, Pipeline, PipelineError, StartProvider, Validator,
 };
@@ -212,6 +213,11 @@ where
     /// A solve with these attempts, with or without the all-roots fallback (a RANSAC sample
     /// goes without).
     pub(crate) fn run(&self, p: &SVector<f64, ND>, schedule: &[Attempt], fallback: bool) -> Outcome<S::Validator, NX, ND> {
+        // The user's data is checked before a canonical frame mixes its rows, so that an error
+        // names the row and field the user wrote.
+        if let Some(index) = p.iter().position(|v| !v.is_finite()) {
+            return Err(SolveError::Input(NonFiniteParameter::locate(&S::Data::LAYOUT, index).into()));
+        }
         let target = FirstRows::<S::Tracked>::new(S::Data::LAYOUT);
         let simulator = Generic(S::Tracked::default());
         let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &self.learned, problem: &self.problem };

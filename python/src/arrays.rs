@@ -1,0 +1,68 @@
+//! numpy in and out. Every input goes through `numpy.ascontiguousarray(x, dtype=float64)` (so
+//! lists and integer arrays work) and is copied before the GIL is released; a wrong shape or a
+//! non-finite value is an [`InputError`](crate::errors::InputError) naming the argument, and
+//! the row and column where that helps.
+
+use crate::errors::Failure;
+use nalgebra::{Matrix3, Vector3};
+use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+
+/// A float64 copy of `obj` with its shape.
+pub fn float_array(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(Vec<usize>, Vec<f64>)> {
+    let py = obj.py();
+    let np = py.import("numpy")?;
+    let converted = np
+        .call_method1("ascontiguousarray", (obj, "float64"))
+        .map_err(|e| Failure::Input(format!("`{name}`: not an array of numbers ({e})")))?;
+    let array = converted.cast::<PyArrayDyn<f64>>().map_err(|e| Failure::Input(format!("`{name}`: {e}")))?;
+    let shape = array.shape().to_vec();
+    let data = array.readonly().as_slice().map_err(|e| Failure::Input(format!("`{name}`: {e}")))?.to_vec();
+    Ok((shape, data))
+}
+
+/// Describes a shape as numpy prints it.
+pub fn shape_text(shape: &[usize]) -> String {
+    match shape {
+        [n] => format!("({n},)"),
+        _ => format!("({})", shape.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")),
+    }
+}
+
+/// An `(N, width)` array, row after row; an error names `name` and the expected shape.
+pub fn rows_of(obj: &Bound<'_, PyAny>, name: &str, width: usize) -> PyResult<(usize, Vec<f64>)> {
+    let (shape, data) = float_array(obj, name)?;
+    match shape.as_slice() {
+        [n, w] if *w == width => Ok((*n, data)),
+        _ => Err(Failure::Input(format!("`{name}`: expected an array of shape (N, {width}), got shape {}", shape_text(&shape))).into()),
+    }
+}
+
+/// An `(N, 3)` array as 3-vectors, every value finite; an error names the argument and row.
+pub fn vectors(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<Vector3<f64>>> {
+    let (n, data) = rows_of(obj, name, 3)?;
+    if let Some(i) = data.iter().position(|v| !v.is_finite()) {
+        return Err(Failure::Input(format!("correspondence {}, field `{name}`: {} is not finite", i / 3, data[i])).into());
+    }
+    Ok((0..n).map(|i| Vector3::new(data[3 * i], data[3 * i + 1], data[3 * i + 2])).collect())
+}
+
+/// Checks that every array has as many rows as the first.
+pub fn same_count(counts: &[(&str, usize)]) -> Result<usize, Failure> {
+    let (first, n) = counts[0];
+    match counts.iter().find(|(_, m)| *m != n) {
+        Some((name, m)) => Err(Failure::Input(format!("`{name}` has {m} rows, `{first}` has {n}: one row per correspondence"))),
+        None => Ok(n),
+    }
+}
+
+/// A 3x3 matrix as a numpy array.
+pub fn matrix<'py>(py: Python<'py>, m: &Matrix3<f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let rows: Vec<Vec<f64>> = (0..3).map(|r| (0..3).map(|c| m[(r, c)]).collect()).collect();
+    Ok(PyArray2::from_vec2(py, &rows)?)
+}
+
+/// A vector as a numpy array.
+pub fn vector<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
+    PyArray1::from_slice(py, v)
+}

@@ -7,15 +7,26 @@ use crate::errors::Failure;
 use nalgebra::{Matrix3, Vector3};
 use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 
-/// A float64 copy of `obj` with its shape.
+/// A float64 copy of `obj` with its shape. A C-contiguous float64 array is read as it is;
+/// anything else goes through `numpy.ascontiguousarray` first.
 pub fn float_array(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(Vec<usize>, Vec<f64>)> {
+    if let Ok(array) = obj.cast::<PyArrayDyn<f64>>() {
+        if array.is_c_contiguous() {
+            return copy(array, name);
+        }
+    }
+    static ASCONTIGUOUSARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
     let py = obj.py();
-    let np = py.import("numpy")?;
-    let converted = np
-        .call_method1("ascontiguousarray", (obj, "float64"))
-        .map_err(|e| Failure::Input(format!("`{name}`: not an array of numbers ({e})")))?;
+    let convert = ASCONTIGUOUSARRAY.import(py, "numpy", "ascontiguousarray")?;
+    let converted = convert.call1((obj, "float64")).map_err(|e| Failure::Input(format!("`{name}`: not an array of numbers ({e})")))?;
     let array = converted.cast::<PyArrayDyn<f64>>().map_err(|e| Failure::Input(format!("`{name}`: {e}")))?;
+    copy(array, name)
+}
+
+/// The shape and a copy of the numbers of a C-contiguous array.
+fn copy(array: &Bound<'_, PyArrayDyn<f64>>, name: &str) -> PyResult<(Vec<usize>, Vec<f64>)> {
     let shape = array.shape().to_vec();
     let data = array.readonly().as_slice().map_err(|e| Failure::Input(format!("`{name}`: {e}")))?.to_vec();
     Ok((shape, data))

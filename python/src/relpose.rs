@@ -8,13 +8,18 @@ use crate::problem::{ransac_options, ProblemSolver};
 use generalized_relative_pose::{pose, GenRelPose, FOCAL_PX};
 use nalgebra::{SVector, Vector3};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::PyDict;
 
 crate::python_module!(grp, GenRelPose::new());
 
-/// The `simhc.grp` module's solver.
+/// The `simhc.grp` module's solver (looked up once).
 fn solver<'py>(py: Python<'py>) -> PyResult<Bound<'py, ProblemSolver>> {
-    Ok(py.import("simhc._simhc")?.getattr("grp")?.getattr("solver")?.cast_into::<ProblemSolver>()?)
+    static SOLVER: PyOnceLock<Py<ProblemSolver>> = PyOnceLock::new();
+    let solver = SOLVER.get_or_try_init(py, || -> PyResult<_> {
+        Ok(py.import("simhc._simhc")?.getattr("grp")?.getattr("solver")?.cast_into::<ProblemSolver>()?.unbind())
+    })?;
+    Ok(solver.bind(py).clone())
 }
 
 /// The rows `[f, v, fp, vp]` of four `(N, 3)` arrays.

@@ -28,6 +28,7 @@ use rand::Rng;
 
 /// The unnormalized rotation matrix `R(q)` of `q = [w, x, y, z]` (module docs). For a unit `q`
 /// this is the rotation of `q`; every entry is a quadratic form in `q`.
+#[inline]
 pub fn rotation_from_quat(q: [f64; 4]) -> Matrix3<f64> {
     let [q0, q1, q2, q3] = q;
     Matrix3::new(
@@ -50,6 +51,7 @@ pub fn rotation_from_quat(q: [f64; 4]) -> Matrix3<f64> {
 /// Uses Shepperd's method (pivot on the largest of `4 q_k²`), so it is accurate for every
 /// rotation. A matrix that is only approximately orthonormal gives a nearby unit quaternion; a
 /// non-finite input gives non-finite output.
+#[inline]
 pub fn quat_from_rotation(r: &Matrix3<f64>) -> [f64; 4] {
     let (m00, m01, m02) = (r[(0, 0)], r[(0, 1)], r[(0, 2)]);
     let (m10, m11, m12) = (r[(1, 0)], r[(1, 1)], r[(1, 2)]);
@@ -79,6 +81,7 @@ pub fn quat_from_rotation(r: &Matrix3<f64>) -> [f64; 4] {
 
 /// `q / |q|` with the sign chosen so that `q0 >= 0` (tie: first non-zero component positive).
 /// Returns NaNs for a zero or non-finite `q`.
+#[inline]
 pub fn canonical_quat(q: [f64; 4]) -> [f64; 4] {
     let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
     if n == 0.0 || !n.is_finite() {

@@ -22,9 +22,7 @@ use serde::{Deserialize, Serialize};
 use simhc::layout::Layout;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
 use simhc::pipeline::{Attempt, Generic, Method, Pipeline, PipelineOptions, StartProvider};
-use simhc::solver::{
-    shipped_schedule, AllRootsFallback, Canon, DeclaredProblem, FirstRows, ProblemRows, RandomStart, Refined, SolveError, Solver,
-};
+use simhc::solver::{shipped_schedule, AllRootsFallback, Canon, DeclaredProblem, FirstRows, RandomStart, Refined, SolveError, Solver};
 use simhc::ProblemLayout;
 #[cfg(feature = "train")]
 use simhc_regressor::generic::train_learned_start_with;
@@ -209,7 +207,7 @@ where
         config.train.progress = true;
         let out = a.out.unwrap_or_else(|| PathBuf::from(format!("{}.folded", S::NAME)));
         println!("train {}: {} scenes (noise {}), {} epochs, seed {}", S::NAME, config.samples, a.noise, config.train.epochs, a.seed);
-        let rows = ProblemRows::<S, NX, NF, NP, NC, ND>::new(self.problem.clone());
+        let rows = simhc::solver::ProblemRows::<S, NX, NF, NP, NC, ND>::new(self.problem.clone());
         let trained = train_learned_start_with(&S::Data::LAYOUT, rows, &config, |rng| {
             let (mut p, mut x) = self.problem.scene(rng, a.noise);
             if let Some((pc, frame)) = self.problem.canonicalize(&p) {

@@ -30,13 +30,8 @@ import poselib
 
 import simhc
 
-FOCAL = 800.0
-
-
-def rotation(axis, angle):
-    axis = axis / np.linalg.norm(axis)
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+# The rig scenes' rotation, error metrics and focal length are robust_grp.py's (this folder).
+from robust_grp import FOCAL, errors, rotation
 
 
 def noisy(d, sigma, rng):
@@ -83,11 +78,6 @@ def absolute_trial(rng, sigma, n=10):
         f.append(noisy(X - c, sigma, rng))
         v.append(c)
     return np.array(p), np.array(f), np.array(v), R, t
-
-
-def errors(R, t, Rg, tg):
-    c = np.clip((np.trace(R @ Rg.T) - 1) / 2, -1, 1)
-    return math.degrees(math.acos(c)), 100 * np.linalg.norm(t - tg) / np.linalg.norm(tg)
 
 
 def summary(name, results):

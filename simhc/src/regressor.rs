@@ -213,6 +213,52 @@ fn madd<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
 
 /// A trained regressor with batch norm folded into its dense layers (module docs), ready for an
 /// allocation-free [`forward`](Self::forward) at batch size 1.
+/// How a network's outputs hold several start hypotheses ([`HypothesisBlocks::of`]): `count`
+/// blocks of one prediction's `width` numbers, then, when `scored`, one score (a logit) per
+/// block, which ranks them (higher first). A network with one hypothesis has no score.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HypothesisBlocks {
+    /// Numbers of one prediction.
+    pub width: usize,
+    /// Hypotheses.
+    pub count: usize,
+    /// Whether a score per hypothesis follows the blocks.
+    pub scored: bool,
+}
+
+impl HypothesisBlocks {
+    /// The layout of `outputs` numbers holding predictions of `width` numbers: `width` is one;
+    /// a multiple (2 or more) of `width + 1` is that many scored blocks; another multiple of
+    /// `width` that many unscored blocks; `None` otherwise, or for more than `max` blocks.
+    pub fn of(outputs: usize, width: usize, max: usize) -> Option<Self> {
+        let (count, scored) = match outputs {
+            _ if width == 0 => return None,
+            o if o == width => (1, false),
+            // Trainers score every network of two or more hypotheses.
+            o if o % (width + 1) == 0 && o / (width + 1) >= 2 => (o / (width + 1), true),
+            o if o % width == 0 => (o / width, false),
+            _ => return None,
+        };
+        (count <= max).then_some(Self { width, count, scored })
+    }
+
+    /// `count` blocks of `width`, scored when there are two or more (as the trainers make them).
+    pub fn trained(width: usize, count: usize) -> Self {
+        let count = count.max(1);
+        Self { width, count, scored: count > 1 }
+    }
+
+    /// The outputs of this layout.
+    pub fn outputs(&self) -> usize {
+        self.count * self.width + if self.scored { self.count } else { 0 }
+    }
+
+    /// The score of hypothesis `k` in the outputs `out`, `None` when unscored.
+    pub fn score(&self, out: &[f64], k: usize) -> Option<f64> {
+        self.scored.then(|| out[self.count * self.width + k])
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct FoldedNetwork {
     input_width: usize,
@@ -458,6 +504,24 @@ impl IsaKernel for Forward<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn hypothesis_blocks_read_the_trainers_layouts() {
+        let of = |o, w| HypothesisBlocks::of(o, w, 8);
+        assert_eq!(of(10, 10), Some(HypothesisBlocks { width: 10, count: 1, scored: false }));
+        assert_eq!(of(44, 10), Some(HypothesisBlocks { width: 10, count: 4, scored: true }));
+        assert_eq!(of(40, 10), Some(HypothesisBlocks { width: 10, count: 4, scored: false }));
+        assert_eq!(of(11, 10), None, "one block is never scored");
+        assert_eq!(of(13, 10), None);
+        assert_eq!(of(99, 10), None, "9 scored blocks are more than 8");
+        assert_eq!(of(0, 0), None);
+        for k in 1..=8 {
+            let b = HypothesisBlocks::trained(7, k);
+            assert_eq!(of(b.outputs(), 7), Some(b), "{k} trained hypotheses read back");
+        }
+        let b = HypothesisBlocks::trained(2, 2);
+        assert_eq!(b.score(&[0.0, 0.0, 0.0, 0.0, 0.25, 0.75], 1), Some(0.75));
+    }
 
     fn tiny() -> FoldedNetwork {
         // 2 -> 3 (point) -> 2 (head)

@@ -35,6 +35,11 @@ pub struct LearnedStartConfig {
     pub head_widths: Vec<usize>,
     /// Training scenes.
     pub samples: usize,
+    /// Start hypotheses per prediction (winner-takes-all training; the solver ranks them on
+    /// the data and tracks them in order). 1: a single prediction.
+    pub hypotheses: usize,
+    /// Weight of the mean over all hypotheses in the winner-takes-all loss.
+    pub relax: f64,
     /// Optimizer settings; `train.seed` also seeds the sampler.
     pub train: TrainConfig,
 }
@@ -45,6 +50,8 @@ impl Default for LearnedStartConfig {
             point_widths: vec![64, 128, 128],
             head_widths: vec![128],
             samples: 50_000,
+            hypotheses: 1,
+            relax: 0.05,
             train: TrainConfig { learning_rate: 2e-3, final_learning_rate: 2e-5, ..TrainConfig::default() },
         }
     }

@@ -182,3 +182,35 @@ fn a_learned_start_predicts_without_allocating() {
     // The quaternion comes out normalized.
     assert!((x[..4].iter().map(|v| v * v).sum::<f64>() - 1.0).abs() < 1e-12, "{x:?}");
 }
+
+/// A network of two scored hypotheses: `predict` returns the better-scored one, normalized,
+/// without allocating; outputs that are not blocks of the unknowns are refused.
+#[test]
+fn a_learned_start_with_hypotheses_returns_the_best_scored_one() {
+    use simhc::layout::{FieldKind, FieldLayout, Layout};
+    use simhc::pipeline::LearnedStart;
+    use simhc::regressor::{DenseLayer, FoldedNetwork, HypothesisBlocks};
+    const UNKNOWNS: &[FieldLayout] =
+        &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "t", kind: FieldKind::Vector(3), offset: 4 }];
+    const ROW: &[FieldLayout] = &[FieldLayout { name: "f", kind: FieldKind::Vector(3), offset: 0 }];
+    let layout =
+        Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 2, per_row: 3, equations_per_row: 1, parameter_free: &[], norms: &[] };
+    // Zero weights: the outputs are the head's biases, two blocks of 7 and their scores.
+    let network = |bias: Vec<f32>| {
+        let point = DenseLayer::new(3, 4, vec![0.0; 12], vec![0.0; 4]).unwrap();
+        let head = DenseLayer::new(4, bias.len(), vec![0.0; 4 * bias.len()], bias).unwrap();
+        FoldedNetwork::new(3, vec![point], vec![head], false).unwrap()
+    };
+    let first = [2.0, 0.0, 0.0, 0.0, 1.0, 2.0, 3.0];
+    let second = [0.0, 0.0, 0.0, 3.0, -1.0, -2.0, -3.0];
+    let bias: Vec<f32> = first.iter().chain(&second).chain(&[0.5, 1.5]).map(|v| *v as f32).collect();
+    let start = LearnedStart::new(network(bias), layout).unwrap();
+    assert_eq!(start.blocks(), HypothesisBlocks { width: 7, count: 2, scored: true });
+    let mut x = [0.0; 7];
+    let (result, allocations) = counted(|| start.predict(&[0.1, 0.2, 0.3, 0.4, 0.5, 0.6], &mut x));
+    result.expect("a prediction");
+    assert_eq!(allocations, 0);
+    assert_eq!(x, [0.0, 0.0, 0.0, 1.0, -1.0, -2.0, -3.0], "the second block scores higher");
+    // 15 outputs are neither 7, nor scored blocks of 8, nor blocks of 7.
+    assert!(LearnedStart::new(network(vec![0.1; 15]), layout).is_err());
+}

@@ -205,3 +205,25 @@ pub fn translation_scale_for_rotation(r: &Matrix3<f64>, corrs: &[GrpsCorresponde
     let x = a.cholesky()?.solve(&b);
     x.iter().all(|v| v.is_finite()).then(|| (Vector3::new(x[0], x[1], x[2]), x[3]))
 }
+
+/// How well a rotation alone explains the data: the summed squared angular residuals
+/// ([`angular_residual`]) at the rotation's least-squares `(t, s)`
+/// ([`translation_scale_for_rotation`]); `f64::INFINITY` when `(t, s)` is undetermined or the
+/// cost is not finite. It ranks a regressor's start hypotheses on one problem: the true rotation
+/// scores 0 on exact data, and the translation and scale need not be predicted well for the
+/// rank to hold. Measured (2026-12-03, 2,000 validation scenes, 4 hypotheses): the first-ranked
+/// rotation has a median error of 11.6 deg by this cost, 12.6 by the linear residual alone,
+/// 14.2 by the angular cost of the predicted `(t, s)`, 14.7 by the network's own scores.
+pub fn rotation_residual(r: &Matrix3<f64>, corrs: &[GrpsCorrespondence]) -> f64 {
+    match translation_scale_for_rotation(r, corrs) {
+        Some((t, s)) => {
+            let cost = angular_cost(r, &t, s, corrs);
+            if cost.is_finite() {
+                cost
+            } else {
+                f64::INFINITY
+            }
+        }
+        None => f64::INFINITY,
+    }
+}

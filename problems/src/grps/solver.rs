@@ -55,7 +55,7 @@
 
 use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
 use super::geometry::{simulate_ray, triangulate_depths, validate, GrpsError};
-use super::refine::{angular_residual, refine_pose, translation_scale_for_rotation, LmOptions};
+use super::refine::{angular_residual, refine_pose, rotation_residual, translation_scale_for_rotation, LmOptions};
 use super::scene::GrpsCorrespondence;
 use super::{Grps7, Grps8, Row};
 use crate::metrics::rotation_from_quat;
@@ -64,7 +64,7 @@ use simhc::pipeline::{
     self, Attempt, Fallback, Generic, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator,
     TargetParameters, Validator, Verdict,
 };
-use simhc::regressor::{FoldedNetwork, RegressorError};
+use simhc::regressor::{FoldedNetwork, HypothesisBlocks, RegressorError};
 use simhc::tracker::{solve_newton, NewtonOptions, TrackStats, TrackerOptions};
 use simhc::{CoefficientForm, MinNormSimulator, ParamDerivative, SimulatorError};
 use std::cell::{Cell, OnceCell};
@@ -73,6 +73,9 @@ use std::time::{Duration, Instant};
 
 pub use simhc::pipeline::AttemptError;
 use thiserror::Error;
+
+/// Most start hypotheses per prediction a GRPS network may output.
+pub const MAX_HYPOTHESES: usize = 8;
 
 /// The shipped GRPS regressor (trained by `simhc train grps`).
 pub static GRPS_WEIGHTS: &[u8] = include_bytes!("../../weights/grps.folded");
@@ -162,6 +165,10 @@ pub enum StartKind {
     SwappedRotation,
     /// The prediction rotated by `restart_angles_deg[k / 6]` about the fixed axis `k % 6`.
     Perturbed(u8),
+    /// The regressor's hypothesis of rank `k >= 1` (a network with several hypotheses per
+    /// prediction; [`StartKind::Prediction`] is rank 0), ranked by
+    /// [`super::refine::rotation_residual`].
+    Hypothesis(u8),
     /// A start given by the caller.
     Given,
 }
@@ -175,6 +182,7 @@ impl StartKind {
             StartKind::Swapped => "swapped prediction",
             StartKind::SwappedRotation => "swapped rotation, least-squares t and s",
             StartKind::Perturbed(_) => "perturbed prediction",
+            StartKind::Hypothesis(_) => "another hypothesis of the regressor",
             StartKind::Given => "given start",
         }
     }
@@ -425,7 +433,8 @@ impl GrpsSolver {
         Ok(Self::with_network(FoldedNetwork::from_bytes(GRPS_WEIGHTS)?))
     }
 
-    /// The solver with a given network (rows of width [`GRPS_ROW_WIDTH`], 10 outputs).
+    /// The solver with a given network (rows of width [`GRPS_ROW_WIDTH`], [`GRPS_OUTPUTS`]
+    /// outputs per start hypothesis, at most [`MAX_HYPOTHESES`] hypotheses).
     pub fn with_network(network: FoldedNetwork) -> Self {
         Self { network, options: GrpsSolverOptions::default() }
     }
@@ -446,24 +455,62 @@ impl GrpsSolver {
         self.solve_report(corrs).map(|r| r.pose)
     }
 
-    /// The regressor's pose for `corrs` (checked input, at least one correspondence).
-    pub fn predict(&self, corrs: &[GrpsCorrespondence]) -> Result<GrpsPose, GrpsSolveError> {
-        validate(corrs)?;
-        let frame = frame_of(corrs)?;
-        Ok(from_canonical(&frame, &self.predict_canonical(&frame.canonical(corrs))?))
+    /// How the network's outputs hold its start hypotheses (blocks of [`GRPS_OUTPUTS`], scored
+    /// when there are several); an error for outputs that are not such blocks.
+    pub fn blocks(&self) -> Result<HypothesisBlocks, RegressorError> {
+        HypothesisBlocks::of(self.network.output_width(), GRPS_OUTPUTS, MAX_HYPOTHESES)
+            .ok_or(RegressorError::Format("GRPS network outputs are not 1 to 8 blocks of 10 (and their scores)"))
     }
 
-    /// The regressor's pose for correspondences already in their canonical frames.
-    fn predict_canonical(&self, canonical: &[GrpsCorrespondence]) -> Result<GrpsPose, GrpsSolveError> {
+    /// Start hypotheses per prediction (1 for a network of the wrong outputs, which
+    /// [`GrpsSolver::predict`] reports).
+    pub fn hypotheses(&self) -> usize {
+        self.blocks().map_or(1, |b| b.count)
+    }
+
+    /// The regressor's pose for `corrs` (checked input, at least one correspondence): its
+    /// first-ranked hypothesis.
+    pub fn predict(&self, corrs: &[GrpsCorrespondence]) -> Result<GrpsPose, GrpsSolveError> {
+        Ok(self.predict_all(corrs)?[0])
+    }
+
+    /// All of the regressor's start hypotheses for `corrs`, best-ranked first (by
+    /// [`super::refine::rotation_residual`] on the data, not by the network's scores: measured
+    /// better there); one for a network with one hypothesis.
+    pub fn predict_all(&self, corrs: &[GrpsCorrespondence]) -> Result<Vec<GrpsPose>, GrpsSolveError> {
+        validate(corrs)?;
+        let frame = frame_of(corrs)?;
+        Ok(self.predict_canonical(&frame.canonical(corrs))?.iter().map(|p| from_canonical(&frame, p)).collect())
+    }
+
+    /// The regressor's hypotheses for correspondences already in their canonical frames, ranked
+    /// (at least one).
+    fn predict_canonical(&self, canonical: &[GrpsCorrespondence]) -> Result<Vec<GrpsPose>, GrpsSolveError> {
         let frame = GrpsFrame::IDENTITY;
         let mut rows = vec![0.0f32; GRPS_ROW_WIDTH * canonical.len()];
         if !frame.rows(canonical, &mut rows) {
             return Err(GrpsSolveError::NoCanonicalFrame);
         }
-        let mut out = [0.0f64; GRPS_OUTPUTS];
-        self.network.forward(&rows, &mut out)?;
-        let (rotation, translation, scale) = frame.decode(&out).ok_or(GrpsSolveError::BadPrediction)?;
-        Ok(GrpsPose { rotation, translation, scale })
+        let blocks = self.blocks()?;
+        let mut out = [0.0f64; (GRPS_OUTPUTS + 1) * MAX_HYPOTHESES];
+        let out = &mut out[..blocks.outputs()];
+        self.network.forward(&rows, out)?;
+        let mut ranked: Vec<(f64, GrpsPose)> = out[..blocks.count * GRPS_OUTPUTS]
+            .chunks_exact(GRPS_OUTPUTS)
+            .filter_map(|block| {
+                let (rotation, translation, scale) = frame.decode(block.try_into().ok()?)?;
+                // Lower ranks first. The data ranks better than the network's scores here
+                // (measured, see `rotation_residual`).
+                let rank = if blocks.count > 1 { rotation_residual(&rotation, canonical) } else { 0.0 };
+                Some((rank, GrpsPose { rotation, translation, scale }))
+            })
+            .collect();
+        // Stable: equal ranks keep the network's order.
+        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+        if ranked.is_empty() {
+            return Err(GrpsSolveError::BadPrediction);
+        }
+        Ok(ranked.into_iter().map(|(_, p)| p).collect())
     }
 
     /// Solves with the regressor's start and the retries of the options.
@@ -477,9 +524,9 @@ impl GrpsSolver {
         let t0 = Instant::now();
         let frame = frame_of(corrs)?;
         let canonical = frame.canonical(corrs);
-        let prediction = self.predict_canonical(&canonical)?;
+        let predictions = self.predict_canonical(&canonical)?;
         let mut times = StageTimes { regressor: t0.elapsed(), ..StageTimes::default() };
-        let result = self.run(&canonical, Some(prediction), None, &mut times);
+        let result = self.run(&canonical, &predictions, None, &mut times);
         to_user(result, &frame, corrs)
     }
 
@@ -495,21 +542,22 @@ impl GrpsSolver {
         let frame = frame_of(corrs)?;
         let (rotation, translation, scale) = frame.to_canonical(&start.rotation, &start.translation, start.scale);
         let start = GrpsPose { rotation, translation, scale };
-        let result = self.run(&frame.canonical(corrs), None, Some(start), &mut times);
+        let result = self.run(&frame.canonical(corrs), &[], Some(start), &mut times);
         to_user(result, &frame, corrs)
     }
 
     fn run(
         &self,
         corrs: &[GrpsCorrespondence],
-        prediction: Option<GrpsPose>,
+        predictions: &[GrpsPose],
         given: Option<GrpsPose>,
         times: &mut StageTimes,
     ) -> Result<GrpsSolveReport, GrpsSolveError> {
+        let prediction = predictions.first().copied();
         let base = given.or(prediction).ok_or(GrpsSolveError::BadPrediction)?;
         let base_kind = if given.is_some() { StartKind::Given } else { StartKind::Prediction };
-        let (kinds, schedule) = self.schedule(base_kind);
-        let hypotheses = Hypotheses::new(self, base, kinds);
+        let (kinds, schedule) = self.schedule(base_kind, predictions.len());
+        let hypotheses = Hypotheses::new(self, base, predictions, kinds);
         let result = if corrs.len() == 7 {
             self.pipeline::<Grps7, 7, 8, 84, 266, _>(&hypotheses, Grps7::params, |p| p.with_schedule(&schedule).solve(corrs))
         } else {
@@ -589,11 +637,13 @@ impl GrpsSolver {
 
     /// The start hypotheses and the attempts in order (module docs): `schedule[i].provider`
     /// indexes the hypotheses.
-    fn schedule(&self, base_kind: StartKind) -> (Vec<StartKind>, Vec<Attempt>) {
+    /// `predictions` is the number of the regressor's hypotheses (0 for a given start).
+    fn schedule(&self, base_kind: StartKind, predictions: usize) -> (Vec<StartKind>, Vec<Attempt>) {
         let o = &self.options;
         let first: Vec<Option<pipeline::Method>> = o.methods.iter().flatten().map(|m| m.in_pipeline()).collect();
         let mut kinds = vec![base_kind];
         if base_kind == StartKind::Prediction {
+            kinds.extend((1..predictions.min(MAX_HYPOTHESES)).map(|k| StartKind::Hypothesis(k as u8)));
             kinds.extend([StartKind::PredictedRotation, StartKind::Swapped, StartKind::SwappedRotation]);
         }
         let mut slots: Vec<(usize, Option<pipeline::Method>)> =
@@ -619,8 +669,9 @@ impl GrpsSolver {
         validate(corrs)?;
         let frame = frame_of(corrs)?;
         let canonical = frame.canonical(corrs);
-        let (kinds, schedule) = self.schedule(StartKind::Prediction);
-        let hypotheses = Hypotheses::new(self, self.predict_canonical(&canonical)?, kinds);
+        let predictions = self.predict_canonical(&canonical)?;
+        let (kinds, schedule) = self.schedule(StartKind::Prediction, predictions.len());
+        let hypotheses = Hypotheses::new(self, predictions[0], &predictions, kinds);
         let same = |a: &SVector<f64, 8>, b: &SVector<f64, 8>| match (GrpsPose::from_unknowns(a), GrpsPose::from_unknowns(b)) {
             (Some(a), Some(b)) => {
                 (a.rotation - b.rotation).norm() <= 1e-6 && (a.translation - b.translation).norm() <= 1e-6 * (1.0 + a.translation.norm())
@@ -671,6 +722,8 @@ type GrpsPipeline<'a, P, const N: usize, const NF: usize, const NP: usize, const
 struct Hypotheses<'s> {
     solver: &'s GrpsSolver,
     base: GrpsPose,
+    /// The regressor's hypotheses, ranked (`predictions[0]` is the base when predicted).
+    predictions: Vec<GrpsPose>,
     /// The hypotheses in the schedule's order ([`GrpsSolver::schedule`]).
     kinds: Vec<StartKind>,
     swapped: OnceCell<Option<GrpsPose>>,
@@ -679,8 +732,8 @@ struct Hypotheses<'s> {
 }
 
 impl<'s> Hypotheses<'s> {
-    fn new(solver: &'s GrpsSolver, base: GrpsPose, kinds: Vec<StartKind>) -> Self {
-        Self { solver, base, kinds, swapped: OnceCell::new(), regressor: Cell::new(Duration::ZERO) }
+    fn new(solver: &'s GrpsSolver, base: GrpsPose, predictions: &[GrpsPose], kinds: Vec<StartKind>) -> Self {
+        Self { solver, base, predictions: predictions.to_vec(), kinds, swapped: OnceCell::new(), regressor: Cell::new(Duration::ZERO) }
     }
 
     /// The start of hypothesis `kind` for the canonical `corrs`.
@@ -694,6 +747,7 @@ impl<'s> Hypotheses<'s> {
         match kind {
             StartKind::Prediction | StartKind::Given => Some(*base),
             StartKind::PredictedRotation => least_squares(base.rotation),
+            StartKind::Hypothesis(k) => self.predictions.get(k as usize).copied(),
             StartKind::Swapped => self.swapped(corrs),
             StartKind::SwappedRotation => least_squares(self.swapped(corrs)?.rotation),
             StartKind::Perturbed(k) => {
@@ -712,7 +766,7 @@ impl<'s> Hypotheses<'s> {
         *self.swapped.get_or_init(|| {
             let t = Instant::now();
             // The swapped canonical views are canonical too.
-            let p = self.solver.predict_canonical(&swap_views(corrs)).ok();
+            let p = self.solver.predict_canonical(&swap_views(corrs)).ok().map(|p| p[0]);
             self.regressor.set(self.regressor.get() + t.elapsed());
             p.map(|p| {
                 let (rotation, translation, scale) = swap_pose(&p.rotation, &p.translation, p.scale);

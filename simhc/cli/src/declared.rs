@@ -21,8 +21,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use simhc::layout::Layout;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
-use simhc::pipeline::{Attempt, Generic, Method, Pipeline, PipelineOptions, StartProvider};
-use simhc::solver::{shipped_schedule, AllRootsFallback, Canon, DeclaredProblem, FirstRows, RandomStart, Refined, SolveError, Solver};
+use simhc::pipeline::{Attempt, Method};
+use simhc::solver::hypotheses::RankedStarts;
+use simhc::solver::{shipped_schedule, DeclaredProblem, RandomStart, SolveError, Solver};
 use simhc::ProblemLayout;
 #[cfg(feature = "train")]
 use simhc_regressor::generic::train_learned_start_with;
@@ -66,6 +67,10 @@ struct TrainArgs {
     /// Noise of the training scenes (the problem's unit).
     #[arg(long, default_value_t = 0.0)]
     noise: f64,
+    /// Start hypotheses per prediction, 1 to 8 (default: the problem's training settings):
+    /// winner-takes-all training; the solver ranks them on the data and tracks them in order.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(1..=8))]
+    hypotheses: Option<u8>,
     /// The weights file to write (default: `<problem>.folded` here).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -205,8 +210,17 @@ where
         config.train.epochs = a.epochs.unwrap_or(config.train.epochs);
         config.train.seed = a.seed;
         config.train.progress = true;
+        config.hypotheses = a.hypotheses.map_or(config.hypotheses, usize::from);
         let out = a.out.unwrap_or_else(|| PathBuf::from(format!("{}.folded", S::NAME)));
-        println!("train {}: {} scenes (noise {}), {} epochs, seed {}", S::NAME, config.samples, a.noise, config.train.epochs, a.seed);
+        println!(
+            "train {}: {} scenes (noise {}), {} epochs, {} start hypotheses, seed {}",
+            S::NAME,
+            config.samples,
+            a.noise,
+            config.train.epochs,
+            config.hypotheses,
+            a.seed
+        );
         let rows = simhc::solver::ProblemRows::<S, NX, NF, NP, NC, ND>::new(self.problem.clone());
         let trained = train_learned_start_with(&S::Data::LAYOUT, rows, &config, |rng| {
             let (mut p, mut x) = self.problem.scene(rng, a.noise);
@@ -260,50 +274,52 @@ where
                 .map_err(|e| format!("{}: {e}", path.display()))?;
         }
         let solver = self.solver(&a.weights, a.noise)?;
-        let learned = solver.learned_start();
+        let ranked = RankedStarts::new(solver.learned_start(), &*self.problem);
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
-        let (target, simulator, validator) =
-            (FirstRows::<S::Tracked>::new(S::Data::LAYOUT), Generic(S::Tracked::default()), solver.validator());
-        let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: learned, problem: &*self.problem };
-        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 3] = [learned, &refined, &random];
         let has_refine = S::REFINES;
-        let all_roots = self.problem.all_roots().filter(|r| r.has_start_system());
-        let fallback = all_roots.map(AllRootsFallback);
+        let has_fallback = self.problem.all_roots().is_some_and(|r| r.has_start_system());
         let progress = !a.json;
         if progress {
             println!("{} bench: {} trials ({source}), single thread", S::NAME, trials.len());
         }
         let rand = 2;
         let score = self.score();
+        // Every row runs the library solver's own assembly (its ranked hypotheses), the random
+        // start in slot 2.
         let row = |name: &str, schedule: &[Attempt], with_fallback: bool, trials: &[(SVector<f64, ND>, SVector<f64, NX>)]| {
-            let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, validator)
-                .with_schedule(schedule)
-                .with_options(PipelineOptions { fallback: with_fallback, ..PipelineOptions::default() });
-            if let (true, Some(f)) = (with_fallback, &fallback) {
-                pipeline = pipeline.with_fallback(f);
-            }
             let bar = progress_bar(trials.len() as u64, progress);
             bar.set_message(name.to_string());
             let row = bench_row(name, trials, &score, |d| {
                 bar.inc(1);
-                pipeline.solve_canonical(&Canon(&*self.problem), d)
+                solver.run_pipeline(d, schedule, with_fallback, Some(&random))
             });
             bar.finish_and_clear();
             row
         };
-        let shipped = shipped_schedule(S::REFINES);
-        let (gauss_newton, simulator_hc) = shipped.split_at(shipped.len() - 1);
+        let one = shipped_schedule(S::REFINES);
+        let (gauss_newton, simulator_hc) = one.split_at(one.len() - 1);
+        let hypotheses = ranked.count();
         let mut rows = vec![
             bench_estimate_row("Pred Initial", &trials, &score, |p| match self.problem.canonicalize(p) {
-                Some((pc, frame)) => StartProvider::<SVector<f64, ND>, NX>::start(learned, &pc).ok().map(|x| (frame.to_user)(&x)),
-                None => StartProvider::<SVector<f64, ND>, NX>::start(learned, p).ok(),
+                Some((pc, frame)) => ranked.start(&pc, 0).ok().map(|x| (frame.to_user)(&x)),
+                None => ranked.start(p, 0).ok(),
             }),
             row(if has_refine { "Pred + Gauss-Newton (all rows)" } else { "Pred + Gauss-Newton" }, gauss_newton, false, &trials),
             row("Rand + Sim HC (one path)", &[Attempt { provider: rand, method: Method::SimulatorHc }], false, &trials),
             row("Pred + Sim HC (one path)", simulator_hc, false, &trials),
-            row(if fallback.is_some() { "Shipped (GN, Sim HC, all roots)" } else { "Shipped (GN, then Sim HC)" }, shipped, true, &trials),
         ];
-        if fallback.is_some() && a.all_roots > 0 {
+        if hypotheses > 1 {
+            let name = format!("Pred, {hypotheses} hypotheses: GN, then Sim HC, no fallback");
+            rows.push(row(&name, solver.schedule(), false, &trials));
+        }
+        let shipped_name = match (has_fallback, hypotheses > 1) {
+            (true, true) => "Shipped (ranked hypotheses: GN, Sim HC; all roots)",
+            (true, false) => "Shipped (GN, Sim HC, all roots)",
+            (false, true) => "Shipped (ranked hypotheses: GN, then Sim HC)",
+            (false, false) => "Shipped (GN, then Sim HC)",
+        };
+        rows.push(row(shipped_name, solver.schedule(), true, &trials));
+        if has_fallback && a.all_roots > 0 {
             rows.push(row("All-roots HC (validated)", &[], true, &trials[..a.all_roots.min(trials.len())]));
         }
         if a.json {

@@ -29,7 +29,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use simhc::layout::{FieldKind, Layout};
 use simhc::pipeline::learned::{InputRows, LayoutRows, LearnedStart};
-use simhc::regressor::{DenseLayer, FoldedNetwork, RegressorError};
+use simhc::regressor::{DenseLayer, FoldedNetwork, HypothesisBlocks, RegressorError};
 use thiserror::Error;
 
 /// A problem's feature hook: what the trainer learns from one of its scenes, and how a
@@ -50,9 +50,70 @@ pub trait FeatureHook {
     fn standardize(&self) -> Standardize {
         Standardize::No
     }
-    /// The loss of a batch: predictions `[B, outputs]` against targets `[B, target_width]`
-    /// (standardized where [`FeatureHook::standardize`] says).
-    fn loss(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1>;
+    /// The loss of every sample of a batch, `[B]`: predictions `[B, outputs]` against targets
+    /// `[B, target_width]` (standardized where [`FeatureHook::standardize`] says). The trainer
+    /// minimizes the mean; [`WinnerTakesAll`] takes the best of several predictions per sample.
+    fn sample_losses(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1>;
+}
+
+/// Several start hypotheses per prediction: the network outputs `hypotheses` blocks of the
+/// inner hook's outputs and one score per block ([`HypothesisBlocks::trained`]). A sample's
+/// loss is that of its best block (winner takes all), plus `relax` times the mean over all
+/// blocks so that no block is left untrained ("relaxed" winner-takes-all, Rupprecht et al.
+/// 2017), plus `score_weight` times the cross-entropy of the scores' softmax against the
+/// winning block. Why: a scene whose pose the network cannot tell from a few others gets one
+/// block per guess instead of one prediction between them; the runtime tracks the blocks in
+/// the order of their scores before any fallback.
+#[derive(Debug, Clone, Copy)]
+pub struct WinnerTakesAll<H> {
+    /// The hook of one hypothesis.
+    pub hook: H,
+    /// Blocks of outputs per prediction (1: the inner hook unchanged).
+    pub hypotheses: usize,
+    /// Weight of the mean over all blocks (0: pure winner-takes-all).
+    pub relax: f64,
+}
+
+/// Weight of the scores' cross-entropy in [`WinnerTakesAll`].
+pub const SCORE_WEIGHT: f64 = 0.1;
+
+impl<H: FeatureHook> FeatureHook for WinnerTakesAll<H> {
+    type Scene = H::Scene;
+
+    fn input_shape(&self) -> (usize, usize) {
+        self.hook.input_shape()
+    }
+
+    fn target_width(&self) -> usize {
+        self.hook.target_width()
+    }
+
+    fn features(&self, index: usize, scene: &Self::Scene, rows: &mut [f32], target: &mut [f64]) -> Result<bool, LearnedStartError> {
+        self.hook.features(index, scene, rows, target)
+    }
+
+    fn standardize(&self) -> Standardize {
+        self.hook.standardize()
+    }
+
+    fn sample_losses(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
+        let k = self.hypotheses.max(1);
+        if k == 1 {
+            return self.hook.sample_losses(prediction, target);
+        }
+        let [batch, outputs] = prediction.dims();
+        let width = (outputs - k) / k;
+        let losses: Vec<Tensor<2>> = (0..k)
+            .map(|h| self.hook.sample_losses(prediction.clone().narrow(1, h * width, width), target.clone()).reshape([batch, 1]))
+            .collect();
+        let losses = Tensor::cat(losses, 1);
+        let best: Tensor<1> = losses.clone().min_dim(1).reshape([batch]);
+        let winner = losses.clone().detach().argmin(1);
+        let scores = burn::tensor::activation::log_softmax(prediction.narrow(1, k * width, k), 1);
+        let cross_entropy: Tensor<1> = scores.gather(1, winner).neg().reshape([batch]);
+        let mean: Tensor<1> = losses.mean_dim(1).reshape([batch]);
+        best * (1.0 - self.relax) + mean * self.relax + cross_entropy * SCORE_WEIGHT
+    }
 }
 
 /// What [`FeatureHook::standardize`] standardizes.
@@ -220,7 +281,7 @@ pub fn train_with_hook<H: FeatureHook>(
             (data, Some((in_std, out_std)))
         }
     };
-    let (model, run) = train_with_loss(model, &data, train, |p, t| hook.loss(p, t));
+    let (model, run) = train_with_loss(model, &data, train, |p, t| hook.sample_losses(p, t).mean());
     Ok(HookTrained { model, run, standardization })
 }
 
@@ -249,7 +310,7 @@ impl<'a, R: InputRows> LayoutFeatures<'a, R> {
     /// The network of `config` for this hook.
     pub fn model(&self, config: &LearnedStartConfig) -> RegressorConfig {
         RegressorConfig::new(self.rows.shape().1, config.point_widths.clone(), config.head_widths.clone())
-            .with_outputs(self.layout.unknown_len())
+            .with_outputs(HypothesisBlocks::trained(self.layout.unknown_len(), config.hypotheses).outputs())
             .with_normalize_output(false)
     }
 }
@@ -284,19 +345,20 @@ impl<R: InputRows> FeatureHook for LayoutFeatures<'_, R> {
         Standardize::AllBut(quats.flat_map(|f| f.offset..f.offset + 4).collect())
     }
 
-    fn loss(&self, pred: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
+    fn sample_losses(&self, pred: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
         let unknowns = self.layout.unknowns;
+        let batch = pred.dims()[0];
         let mut terms: Vec<Tensor<1>> = Vec::new();
         for f in unknowns.iter().filter(|f| f.kind == FieldKind::Quat) {
             let a = pred.clone().narrow(1, f.offset, 4);
             let a = a.clone() / a.square().sum_dim(1).sqrt().clamp_min(1e-6);
             let dot = (a * target.clone().narrow(1, f.offset, 4)).sum_dim(1);
-            terms.push((dot.square().neg() + 1.0).mean());
+            terms.push((dot.square().neg() + 1.0).reshape([batch]));
         }
         for f in unknowns.iter().filter(|f| f.kind != FieldKind::Quat) {
             let n = f.kind.len();
             let d = pred.clone().narrow(1, f.offset, n) - target.clone().narrow(1, f.offset, n);
-            terms.push(d.square().sum_dim(1).mean());
+            terms.push(d.square().sum_dim(1).reshape([batch]));
         }
         terms.into_iter().reduce(|a, b| a + b).expect("a problem has unknowns")
     }
@@ -334,7 +396,9 @@ where
     F: FnMut(&mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>),
 {
     let hook = LayoutFeatures::with_rows(layout, &rows);
-    let trained = train_with_hook(&hook, &hook.model(config), &config.train, config.samples, |_, rng| sample(rng))?;
+    let model = hook.model(config);
+    let hook = WinnerTakesAll { hook, hypotheses: config.hypotheses, relax: config.relax };
+    let trained = train_with_hook(&hook, &model, &config.train, config.samples, |_, rng| sample(rng))?;
     let network = trained.folded()?;
     Ok(TrainedStart { start: LearnedStart::with_rows(network, *layout, rows)?, run: trained.run })
 }
@@ -392,11 +456,16 @@ fn fold_standardizations(net: &FoldedNetwork, input: &Standardization, output: &
     let (ni, no) = (last.inputs(), last.outputs());
     let mut w: Vec<f64> = last.weights().iter().map(|v| f64::from(*v)).collect();
     let mut b: Vec<f64> = last.bias().iter().map(|v| f64::from(*v)).collect();
+    // With several hypotheses the outputs are blocks of the targets' width, each undone alike;
+    // the scores after them stay as they are.
+    let width = output.scale.len();
+    let blocks = HypothesisBlocks::of(no, width, usize::MAX).ok_or(RegressorError::Format("outputs are not blocks of the targets"))?;
     for o in 0..no {
+        let (scale, mean) = if o < blocks.count * width { (output.scale[o % width], output.mean[o % width]) } else { (1.0, 0.0) };
         for i in 0..ni {
-            w[i * no + o] *= output.scale[o];
+            w[i * no + o] *= scale;
         }
-        b[o] = b[o] * output.scale[o] + output.mean[o];
+        b[o] = b[o] * scale + mean;
     }
     let n = head.len();
     head[n - 1] = DenseLayer::new(ni, no, w.iter().map(|v| *v as f32).collect(), b.iter().map(|v| *v as f32).collect())?;
@@ -481,7 +550,7 @@ mod tests {
             fn features(&self, _: usize, _: &(), _: &mut [f32], _: &mut [f64]) -> Result<bool, LearnedStartError> {
                 Ok(false)
             }
-            fn loss(&self, prediction: Tensor<2>, _: Tensor<2>) -> Tensor<1> {
+            fn sample_losses(&self, prediction: Tensor<2>, _: Tensor<2>) -> Tensor<1> {
                 prediction.sum()
             }
         }

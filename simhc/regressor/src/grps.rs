@@ -27,21 +27,26 @@
 //! scale 23.9 %.
 
 use crate::data::{InMemoryDataset, Sample};
-use crate::generic::{scene_dataset, train_with_hook, FeatureHook, LearnedStartError};
+use crate::generic::{scene_dataset, train_with_hook, FeatureHook, LearnedStartError, WinnerTakesAll};
 use crate::model::{PoseRegressor, RegressorConfig};
 use crate::training::{TrainConfig, TrainRun};
 use burn::prelude::*;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use simhc::regressor::HypothesisBlocks;
 use simhc_problems::grps::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
 use simhc_problems::grps::scene::{GrpsScene, GrpsSceneConfig};
 use simhc_problems::grps::solver::GrpsSolver;
 use simhc_problems::metrics::{rotation_error_deg, scale_error_pct, translation_error_pct};
 use std::time::Instant;
 
-/// The shipped GRPS network: 18 -> 64 -> 128 -> 128 -> 256, max-pool, 256 -> 128 -> 10.
-pub fn grps_model() -> RegressorConfig {
-    RegressorConfig::new(GRPS_ROW_WIDTH, vec![64, 128, 128, 256], vec![256, 128]).with_outputs(GRPS_OUTPUTS).with_normalize_output(false)
+/// The GRPS network with `hypotheses` start hypotheses: 18 -> 64 -> 128 -> 128 -> 256,
+/// max-pool, 256 -> 128 -> 10 per hypothesis and, with two or more, a score each
+/// ([`HypothesisBlocks::trained`]).
+pub fn grps_model(hypotheses: usize) -> RegressorConfig {
+    RegressorConfig::new(GRPS_ROW_WIDTH, vec![64, 128, 128, 256], vec![256, 128])
+        .with_outputs(HypothesisBlocks::trained(GRPS_OUTPUTS, hypotheses).outputs())
+        .with_normalize_output(false)
 }
 
 /// Settings of [`train_grps`]; the default is the configuration of the shipped weights.
@@ -59,6 +64,11 @@ pub struct GrpsTrainConfig {
     pub translation_weight: f64,
     /// Weight of the log-scale loss.
     pub scale_weight: f64,
+    /// Start hypotheses per prediction ([`WinnerTakesAll`]); the model's outputs must be
+    /// [`grps_model`]'s for this.
+    pub hypotheses: usize,
+    /// Weight of the mean over all hypotheses in the winner-takes-all loss.
+    pub relax: f64,
     /// Network architecture.
     pub model: RegressorConfig,
     /// Optimizer settings; `train.seed` also seeds the training scenes.
@@ -83,7 +93,9 @@ impl Default for GrpsTrainConfig {
             seven_fraction: 0.2,
             translation_weight: 0.2,
             scale_weight: 0.5,
-            model: grps_model(),
+            hypotheses: 1,
+            relax: 0.05,
+            model: grps_model(1),
             train: TrainConfig { epochs: 12, batch_size: 128, learning_rate: 2e-3, final_learning_rate: 2e-5, seed: 7, progress: true },
             train_samples: 160_000,
             valid_samples: 2_000,
@@ -140,7 +152,7 @@ impl FeatureHook for GrpsFeatures {
         Ok(true)
     }
 
-    fn loss(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
+    fn sample_losses(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
         grps_loss(prediction, target, self.translation_weight, self.scale_weight)
     }
 }
@@ -181,8 +193,9 @@ pub fn training_dataset(config: &GrpsTrainConfig, count: usize, seed: u64) -> Re
     scene_dataset(&GrpsFeatures::of(config), count, seed, |_, rng| sample(config, rng))
 }
 
-/// The loss of the module docs; `pred` and `target` are `[B, 10]`.
+/// The loss of the module docs per sample, `[B]`; `pred` and `target` are `[B, 10]`.
 pub fn grps_loss(pred: Tensor<2>, target: Tensor<2>, translation_weight: f64, scale_weight: f64) -> Tensor<1> {
+    let batch = pred.dims()[0];
     let unit = |v: Tensor<2>| v.clone() / v.square().sum_dim(1).sqrt().clamp_min(1e-6);
     let a1 = pred.clone().narrow(1, 0, 3);
     let a2 = pred.clone().narrow(1, 3, 3);
@@ -193,7 +206,7 @@ pub fn grps_loss(pred: Tensor<2>, target: Tensor<2>, translation_weight: f64, sc
     let rot = (b1 - r1).square().sum_dim(1) + (b2 - r2).square().sum_dim(1);
     let tra = (pred.clone().narrow(1, 6, 3) - target.clone().narrow(1, 6, 3)).square().sum_dim(1);
     let sca = (pred.narrow(1, 9, 1) - target.narrow(1, 9, 1)).square();
-    (rot + tra * translation_weight + sca * scale_weight).mean()
+    (rot + tra * translation_weight + sca * scale_weight).reshape([batch])
 }
 
 /// Median errors of a pose predictor on scenes.
@@ -211,19 +224,29 @@ pub struct PoseStats {
     pub translation_median_pct: f64,
     /// Median scale error (percent).
     pub scale_median_pct: f64,
+    /// Start hypotheses per prediction.
+    pub hypotheses: usize,
+    /// Median over scenes of the smallest rotation error of any hypothesis (degrees; the
+    /// first-ranked one's with one hypothesis).
+    pub best_rotation_median_deg: f64,
+    /// Percent of scenes with some hypothesis under 10 degrees.
+    pub best_under_10_pct: f64,
 }
 
 impl std::fmt::Display for PoseStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "n={} E_R median {:.2} deg (<10: {:.1}%, <20: {:.1}%), E_t median {:.1}%, E_s median {:.1}%",
+            "n={} E_R median {:.2} deg (<10: {:.1}%, <20: {:.1}%), E_t median {:.1}%, E_s median {:.1}%; best of {} hypotheses: E_R median {:.2} deg (<10: {:.1}%)",
             self.count,
             self.rotation_median_deg,
             self.rotation_under_10_pct,
             self.rotation_under_20_pct,
             self.translation_median_pct,
-            self.scale_median_pct
+            self.scale_median_pct,
+            self.hypotheses,
+            self.best_rotation_median_deg,
+            self.best_under_10_pct
         )
     }
 }
@@ -237,27 +260,34 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// Errors of the folded `solver`'s prediction on validation scenes `first_seed + i`.
+/// Errors of the folded `solver`'s prediction (its first-ranked hypothesis, and the best of
+/// all) on validation scenes `first_seed + i`.
 pub fn evaluate_solver(solver: &GrpsSolver, count: usize, first_seed: u64) -> PoseStats {
-    let (mut er, mut et, mut es) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut er, mut et, mut es, mut best) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for i in 0..count {
         let scene = validation_scene(first_seed, i);
-        match solver.predict(&scene.correspondences) {
-            Ok(p) => {
+        match solver.predict_all(&scene.correspondences) {
+            Ok(all) => {
+                let p = all[0];
                 er.push(rotation_error_deg(&p.rotation, &scene.rotation));
                 et.push(translation_error_pct(&p.translation, &scene.translation));
                 es.push(scale_error_pct(p.scale, scene.scale));
+                best.push(all.iter().map(|p| rotation_error_deg(&p.rotation, &scene.rotation)).fold(180.0, f64::min));
             }
             Err(_) => {
                 er.push(180.0);
                 et.push(f64::INFINITY);
                 es.push(f64::INFINITY);
+                best.push(180.0);
             }
         }
     }
     let pct = |v: &[f64], th: f64| 100.0 * v.iter().filter(|&&x| x < th).count() as f64 / v.len().max(1) as f64;
     PoseStats {
         count,
+        hypotheses: solver.hypotheses(),
+        best_under_10_pct: pct(&best, 10.0),
+        best_rotation_median_deg: median(best),
         rotation_under_10_pct: pct(&er, 10.0),
         rotation_under_20_pct: pct(&er, 20.0),
         rotation_median_deg: median(er),
@@ -281,8 +311,8 @@ pub struct GrpsTrained {
 /// ([`train_with_hook`]).
 pub fn train_grps(config: &GrpsTrainConfig) -> Result<GrpsTrained, LearnedStartError> {
     let start = Instant::now();
-    let trained =
-        train_with_hook(&GrpsFeatures::of(config), &config.model, &config.train, config.train_samples, |_, rng| sample(config, rng))?;
+    let hook = WinnerTakesAll { hook: GrpsFeatures::of(config), hypotheses: config.hypotheses, relax: config.relax };
+    let trained = train_with_hook(&hook, &config.model, &config.train, config.train_samples, |_, rng| sample(config, rng))?;
     let data_seconds = start.elapsed().as_secs_f64() - trained.run.train_seconds;
     Ok(GrpsTrained { model: trained.model, run: trained.run, data_seconds })
 }
@@ -306,7 +336,7 @@ pub fn train_and_write(out_dir: &std::path::Path, config: &GrpsTrainConfig) -> R
         config.train.learning_rate,
         config.train.final_learning_rate
     );
-    println!("model {:?}", config.model);
+    println!("model {:?}, {} start hypotheses (winner takes all, relax {})", config.model, config.hypotheses, config.relax);
     let trained = train_grps(config)?;
     let r = &trained.run;
     println!("parameters {}", trained.model.num_params());

@@ -106,8 +106,12 @@ pub struct TrainReport {
 /// the rotation angle between prediction and target (`q` and `-q` are the same rotation).
 /// Both inputs `[B, 4]`, unit norm.
 pub fn quaternion_loss(pred: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
-    let dot = (pred * target).sum_dim(1);
-    (dot.square().neg() + 1.0).mean()
+    (quaternion_dot(pred, target).square().neg() + 1.0).mean()
+}
+
+/// `q_b . q_gt_b` per sample, `[B, 1]`.
+pub fn quaternion_dot(pred: Tensor<2>, target: Tensor<2>) -> Tensor<2> {
+    (pred * target).sum_dim(1)
 }
 
 /// Predicts quaternions for all samples of `data` (batches of 1024) with `model` in inference

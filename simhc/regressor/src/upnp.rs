@@ -16,7 +16,7 @@
 use crate::data::{DataError, InMemoryDataset, Sample};
 use crate::generic::{scene_dataset, train_with_hook, FeatureHook, LearnedStartError};
 use crate::model::{PoseRegressor, RegressorConfig};
-use crate::training::{evaluate, quaternion_loss, RotationStats, TrainConfig, TrainReport};
+use crate::training::{evaluate, quaternion_dot, RotationStats, TrainConfig, TrainReport};
 use burn::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -26,7 +26,7 @@ use std::time::Instant;
 
 /// UPnP's feature hook ([`crate::generic`]): a scene's rows in its canonical frames
 /// ([`UpnpFrame`]) and the quaternion of its canonical rotation, scored by the sign-invariant
-/// [`quaternion_loss`]; the network ([`RegressorConfig::upnp`]) normalizes its quaternion
+/// [`crate::training::quaternion_loss`]; the network ([`RegressorConfig::upnp`]) normalizes its quaternion
 /// itself.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct UpnpFeatures {
@@ -55,8 +55,9 @@ impl FeatureHook for UpnpFeatures {
         Ok(true)
     }
 
-    fn loss(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
-        quaternion_loss(prediction, target)
+    fn sample_losses(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
+        let batch = prediction.dims()[0];
+        (quaternion_dot(prediction, target).square().neg() + 1.0).reshape([batch])
     }
 }
 

@@ -32,6 +32,7 @@ fn small_training(seed: u64, samples: usize, epochs: usize) -> LearnedStartConfi
         head_widths: vec![64],
         samples,
         train: TrainConfig { epochs, batch_size: 64, learning_rate: 3e-3, final_learning_rate: 3e-5, seed, progress: false },
+        ..LearnedStartConfig::default()
     }
 }
 

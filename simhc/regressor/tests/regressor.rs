@@ -124,3 +124,77 @@ fn grps_trains_through_the_generic_trainer() {
     assert!(losses[3] < losses[0], "loss did not decrease: {losses:?}");
     assert_eq!(a.folded().unwrap(), b.folded().unwrap(), "same seed, different weights");
 }
+
+/// Winner-takes-all with scores, on a target the input determines only in part: `y = sign(a)`
+/// where `|a| > 0.5`, a fair coin where `|a| <= 0.5`. One prediction can only average the
+/// coin (about 0, error about 1); two hypotheses learn both values, and their scores pick the
+/// right one where the input decides.
+#[test]
+fn winner_takes_all_learns_both_modes_and_scores_the_right_one() {
+    use simhc::regressor::HypothesisBlocks;
+    use simhc_regressor::generic::{train_with_hook, FeatureHook, LearnedStartError, WinnerTakesAll};
+
+    struct Coin;
+    impl FeatureHook for Coin {
+        type Scene = (f64, f64);
+        fn input_shape(&self) -> (usize, usize) {
+            (1, 1)
+        }
+        fn target_width(&self) -> usize {
+            1
+        }
+        fn features(&self, _: usize, &(a, y): &(f64, f64), rows: &mut [f32], target: &mut [f64]) -> Result<bool, LearnedStartError> {
+            rows[0] = a as f32;
+            target[0] = y;
+            Ok(true)
+        }
+        fn sample_losses(&self, prediction: Tensor<2>, target: Tensor<2>) -> Tensor<1> {
+            let batch = prediction.dims()[0];
+            (prediction - target).square().reshape([batch])
+        }
+    }
+    let scene = |_: usize, rng: &mut ChaCha8Rng| {
+        let a: f64 = rng.random_range(-1.0..1.0);
+        let y = if a.abs() > 0.5 {
+            a.signum()
+        } else if rng.random::<bool>() {
+            1.0
+        } else {
+            -1.0
+        };
+        (a, y)
+    };
+    let train = TrainConfig { epochs: 30, batch_size: 64, learning_rate: 1e-2, final_learning_rate: 1e-3, seed: 3, progress: false };
+    let fit = |k: usize| {
+        let _guard = SEEDED.lock().unwrap_or_else(|e| e.into_inner());
+        let model = RegressorConfig::new(1, vec![16, 16], vec![16])
+            .with_outputs(HypothesisBlocks::trained(1, k).outputs())
+            .with_normalize_output(false);
+        let hook = WinnerTakesAll { hook: Coin, hypotheses: k, relax: 0.05 };
+        train_with_hook(&hook, &model, &train, 2000, scene).unwrap().folded().unwrap()
+    };
+    let (one, two) = (fit(1), fit(2));
+    let blocks = HypothesisBlocks::of(two.output_width(), 1, 8).unwrap();
+    assert_eq!(blocks, HypothesisBlocks { width: 1, count: 2, scored: true });
+    let (mut err_one, mut err_best, mut scored_right, mut decided) = (0.0, 0.0, 0, 0);
+    let inputs: Vec<f64> = (0..200).map(|i| -0.995 + 0.01 * i as f64).collect();
+    for &a in &inputs {
+        let (mut o1, mut o2) = ([0.0; 1], [0.0; 4]);
+        one.forward(&[a as f32], &mut o1).unwrap();
+        two.forward(&[a as f32], &mut o2).unwrap();
+        if a.abs() <= 0.5 {
+            err_one += (o1[0].abs() - 1.0).abs();
+            err_best += (o2[0] - 1.0).abs().min((o2[1] - 1.0).abs()) + (o2[0] + 1.0).abs().min((o2[1] + 1.0).abs());
+        } else {
+            decided += 1;
+            let top = if blocks.score(&o2, 0) >= blocks.score(&o2, 1) { o2[0] } else { o2[1] };
+            scored_right += usize::from((top - a.signum()).abs() < 0.3);
+        }
+    }
+    let coin = inputs.iter().filter(|a| a.abs() <= 0.5).count() as f64;
+    let (err_one, err_best) = (err_one / coin, err_best / (2.0 * coin));
+    println!("coin inputs: one prediction |err| {err_one:.3}, best of two (both values) {err_best:.3}; top-scored right {scored_right}/{decided}");
+    assert!(err_one > 0.6, "one prediction should average the coin: {err_one}");
+    assert!(err_best < 0.2, "two hypotheses should reach both values: {err_best}");
+    assert!(scored_right as f64 >= 0.9 * decided as f64, "scores picked {scored_right} of {decided}");
+}

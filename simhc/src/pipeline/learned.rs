@@ -7,14 +7,16 @@
 //! Rows: by default ([`LayoutRows`]) one per declared row, `[row parameters, global
 //! parameters]` ([`layout_row_width`] numbers); a problem without rows has one row of its
 //! globals. A problem whose raw parameters make poor features (ratios, distances, invariants)
-//! implements [`InputRows`] itself. Outputs: the unknown vector in layout order; a
+//! implements [`InputRows`] itself. Outputs: the unknown vector in layout order, once per
+//! start hypothesis (a network trained with several, winner-takes-all, outputs that many
+//! blocks; [`LearnedStart::hypotheses`]); a
 //! [`crate::FieldKind::Quat`] unknown (its loss was sign-invariant) and a field whose norm a
 //! parameter-free equation fixes (`t.dot(t) - 1`) are normalized here, the others come out in
 //! their own units.
 
 use super::{StartError, StartProvider};
 use crate::layout::Layout;
-use crate::regressor::{FoldedNetwork, RegressorError};
+use crate::regressor::{FoldedNetwork, HypothesisBlocks, RegressorError};
 use nalgebra::SVector;
 
 /// How a learned start reads a problem's parameters: the network's input rows. The trainer
@@ -90,6 +92,9 @@ pub fn layout_rows(layout: &Layout, p: &[f64], out: &mut [f32]) -> bool {
 /// Network input numbers (rows times width) a [`LearnedStart`] keeps on the stack (8 KiB).
 pub const STACK_INPUT: usize = 2048;
 
+/// Most start hypotheses per prediction a [`LearnedStart`] takes.
+pub const MAX_HYPOTHESES: usize = 8;
+
 /// A learned start for a declared problem whose pipeline data is its parameter vector, reading
 /// it through input rows `R`.
 #[derive(Debug, Clone)]
@@ -114,8 +119,8 @@ impl<R: InputRows> LearnedStart<R> {
         if network.input_width() != rows.shape().1 {
             return Err(RegressorError::Format("network input width differs from the input rows' width"));
         }
-        if network.output_width() != layout.unknown_len() {
-            return Err(RegressorError::Format("network output width differs from the number of unknowns"));
+        if HypothesisBlocks::of(network.output_width(), layout.unknown_len(), MAX_HYPOTHESES).is_none() {
+            return Err(RegressorError::Format("network outputs are not 1 to 8 blocks of the unknowns (and their scores)"));
         }
         if network.normalizes_output() {
             return Err(RegressorError::Format("a generic learned start decodes its own outputs"));
@@ -133,10 +138,42 @@ impl<R: InputRows> LearnedStart<R> {
         &self.rows
     }
 
-    /// The predicted unknowns for parameters `p`, quaternions and the fields whose norm an
-    /// equation fixes put on their spheres ([`Layout::normalize_unknowns`]). Without heap
-    /// allocation for inputs of up to [`STACK_INPUT`] numbers.
+    /// How the network's outputs hold its start hypotheses.
+    pub fn blocks(&self) -> HypothesisBlocks {
+        HypothesisBlocks::of(self.network.output_width(), self.layout.unknown_len(), MAX_HYPOTHESES).expect("checked at construction")
+    }
+
+    /// Start hypotheses per prediction (1 to [`MAX_HYPOTHESES`]).
+    pub fn hypotheses(&self) -> usize {
+        self.blocks().count
+    }
+
+    /// The predicted unknowns for parameters `p` (the best-scored hypothesis; the first of an
+    /// unscored network), quaternions and the fields whose norm an equation fixes put on their
+    /// spheres ([`Layout::normalize_unknowns`]). Without heap allocation for inputs of up to
+    /// [`STACK_INPUT`] numbers.
     pub fn predict(&self, p: &[f64], x: &mut [f64]) -> Result<(), RegressorError> {
+        let mut all = [0.0f64; crate::regressor::MAX_WIDTH];
+        let (n, blocks) = (self.layout.unknown_len(), self.blocks());
+        if x.len() != n {
+            return Err(RegressorError::OutputLength { expected: n, got: x.len() });
+        }
+        let all = &mut all[..blocks.outputs()];
+        self.predict_all(p, all)?;
+        let best = (0..blocks.count).max_by(|&a, &b| {
+            let score = |k| blocks.score(all, k).unwrap_or(0.0);
+            // Ties (unscored) keep the first.
+            score(a).total_cmp(&score(b)).then(b.cmp(&a))
+        });
+        let k = best.unwrap_or(0);
+        x.copy_from_slice(&all[k * n..(k + 1) * n]);
+        Ok(())
+    }
+
+    /// The network's outputs for parameters `p` ([`LearnedStart::blocks`]: the hypotheses in
+    /// the network's order, then their scores if scored), each hypothesis normalized as in
+    /// [`LearnedStart::predict`]. Without heap allocation, as `predict`.
+    pub fn predict_all(&self, p: &[f64], out: &mut [f64]) -> Result<(), RegressorError> {
         let (count, width) = self.rows.shape();
         let len = count * width;
         let (mut stack, mut heap) = ([0.0f32; STACK_INPUT], Vec::new());
@@ -150,8 +187,10 @@ impl<R: InputRows> LearnedStart<R> {
             return Err(RegressorError::NoInputRows);
         }
         // `forward` rejects non-finite rows itself (`RegressorError::NonFinite`).
-        self.network.forward(rows, x)?;
-        if self.layout.normalize_unknowns(x) {
+        self.network.forward(rows, out)?;
+        let blocks = self.blocks();
+        let hypotheses = &mut out[..blocks.count * blocks.width];
+        if hypotheses.chunks_exact_mut(blocks.width).all(|x| self.layout.normalize_unknowns(x)) {
             Ok(())
         } else {
             Err(RegressorError::NonFinite)

@@ -33,7 +33,7 @@ use std::time::Duration;
 use thiserror::Error;
 
 pub use executor::{Pipeline, PipelineOptions};
-pub use learned::{InputRows, LayoutRows, LearnedStart, ParameterVector};
+pub use learned::{InputRows, LayoutRows, LearnedStart, ParameterVector, MAX_HYPOTHESES};
 
 use crate::tracker::{TrackError, TrackStats};
 use crate::SimulatorError;

@@ -17,12 +17,14 @@
 //! when it ends validated and the problem's own hooks do not allocate (a
 //! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`).
 
+use super::hypotheses::{provider, provider_count, ranked_schedule, RankedStart, RankedStarts};
 use super::parts::{Canon, FirstRows, FirstRowsError, Refined};
 use super::problem::DeclaredProblem;
 use super::subsystem::AllRootsFallback;
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{
-    Attempt, AttemptError, Generic, InputRows, LayoutRows, LearnedStart, Method, Origin, Pipeline, PipelineError, StartProvider, Validator,
+    Attempt, AttemptError, Generic, InputRows, LayoutRows, LearnedStart, Method, Origin, Pipeline, PipelineError, PipelineOptions, Solved,
+    StartError, StartProvider, Validator, MAX_HYPOTHESES,
 };
 use crate::regressor::{FoldedNetwork, RegressorError};
 use crate::ProblemLayout;
@@ -152,6 +154,11 @@ pub type SolverStart<S, const NX: usize, const NF: usize, const NP: usize, const
 /// The check of a validator `V` of the data.
 pub type Check<V, const NX: usize, const ND: usize> = <V as Validator<SVector<f64, ND>, NX>>::Check;
 
+/// What the pipeline of a solve returns ([`Solver::run_pipeline`]), for a problem whose
+/// validator is `V`.
+pub type PipelineOutcome<V, const NX: usize, const ND: usize> =
+    Result<Solved<Check<V, NX, ND>, NX>, PipelineError<FirstRowsError, Check<V, NX, ND>, NX>>;
+
 /// What a solve returns, for a problem whose validator is `V`.
 pub type Outcome<V, const NX: usize, const ND: usize> = Result<Solution<Check<V, NX, ND>, NX>, SolveError<Check<V, NX, ND>, NX>>;
 
@@ -163,6 +170,8 @@ where
     problem: Arc<S>,
     learned: SolverStart<S, NX, NF, NP, NC, ND>,
     validator: S::Validator,
+    /// [`shipped_schedule`] over the learned start's ranked hypotheses.
+    schedule: Vec<Attempt>,
 }
 
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Solver<S, NX, NF, NP, NC, ND>
@@ -186,7 +195,8 @@ where
         let network = FoldedNetwork::from_bytes(weights)?;
         let learned = LearnedStart::with_rows(network, S::Data::LAYOUT, ProblemRows::new(problem.clone()))?;
         let validator = problem.validator(noise);
-        Ok(Self { problem, learned, validator })
+        let schedule = ranked_schedule(shipped_schedule(S::REFINES), learned.hypotheses());
+        Ok(Self { problem, learned, validator, schedule })
     }
 
     /// The problem.
@@ -204,36 +214,71 @@ where
         &self.learned
     }
 
+    /// The attempts of [`Solver::solve`]: [`shipped_schedule`] over the learned start's ranked
+    /// hypotheses ([`ranked_schedule`]; the providers are laid out as
+    /// [`super::hypotheses::provider`] says).
+    pub fn schedule(&self) -> &[Attempt] {
+        &self.schedule
+    }
+
     /// Solves the data `p` (all rows, the data layout's order): a validated solution or a
     /// typed error; a wrong answer is never returned as `Ok`.
     pub fn solve(&self, p: &SVector<f64, ND>) -> Outcome<S::Validator, NX, ND> {
-        self.run(p, shipped_schedule(S::REFINES), true)
+        self.run(p, &self.schedule, true)
     }
 
     /// A solve with these attempts, with or without the all-roots fallback (a RANSAC sample
     /// goes without).
     pub(crate) fn run(&self, p: &SVector<f64, ND>, schedule: &[Attempt], fallback: bool) -> Outcome<S::Validator, NX, ND> {
-        // The user's data is checked before a canonical frame mixes its rows, so that an error
-        // names the row and field the user wrote.
-        if let Some(index) = p.iter().position(|v| !v.is_finite()) {
-            return Err(SolveError::Input(NonFiniteParameter::locate(&S::Data::LAYOUT, index).into()));
-        }
-        let target = FirstRows::<S::Tracked>::new(S::Data::LAYOUT);
-        let simulator = Generic(S::Tracked::default());
-        let refined = Refined::<S, NX, NF, NP, NC, ND> { inner: &self.learned, problem: &self.problem };
-        let starts: [&dyn StartProvider<SVector<f64, ND>, NX>; 2] = [&self.learned, &refined];
-        let all_roots = self.problem.all_roots().filter(|r| fallback && r.has_start_system()).map(AllRootsFallback);
-        let mut pipeline =
-            Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, &starts, &simulator, &self.validator).with_schedule(schedule);
-        if let Some(f) = &all_roots {
-            pipeline = pipeline.with_fallback(f);
-        }
-        match pipeline.solve_canonical(&Canon(&*self.problem), p) {
+        match self.run_pipeline(p, schedule, fallback, None) {
             Ok(s) => Ok(Solution { x: s.x, origin: s.origin, attempts: s.attempts, check: s.check }),
             Err(PipelineError::Input(e)) => Err(SolveError::Input(e)),
             Err(PipelineError::NotValidated(s)) => Err(SolveError::NotValidated { best: s.x, check: s.check, attempts: s.attempts }),
             Err(PipelineError::NoEndPoint { attempts, last }) => Err(SolveError::NoEndPoint { attempts, last }),
         }
+    }
+
+    /// The pipeline's own result of a solve with these attempts over the providers of
+    /// [`super::hypotheses::provider`], `extra` in slot 2 (the bench's random start), with or
+    /// without the all-roots fallback: what the bench tallies.
+    pub fn run_pipeline(
+        &self,
+        p: &SVector<f64, ND>,
+        schedule: &[Attempt],
+        fallback: bool,
+        extra: Option<&dyn StartProvider<SVector<f64, ND>, NX>>,
+    ) -> PipelineOutcome<S::Validator, NX, ND> {
+        // The user's data is checked before a canonical frame mixes its rows, so that an error
+        // names the row and field the user wrote.
+        if let Some(index) = p.iter().position(|v| !v.is_finite()) {
+            return Err(PipelineError::Input(NonFiniteParameter::locate(&S::Data::LAYOUT, index).into()));
+        }
+        let target = FirstRows::<S::Tracked>::new(S::Data::LAYOUT);
+        let simulator = Generic(S::Tracked::default());
+        let set = RankedStarts::new(&self.learned, &*self.problem);
+        let ranked: [RankedStart<'_, '_, S, _, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
+            std::array::from_fn(|rank| RankedStart { set: &set, rank });
+        let refined: [Refined<'_, S, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
+            std::array::from_fn(|rank| Refined { inner: &ranked[rank], problem: &*self.problem });
+        let none = NoStart;
+        let mut starts: [&dyn StartProvider<SVector<f64, ND>, NX>; provider_count(MAX_HYPOTHESES)] =
+            [&none; provider_count(MAX_HYPOTHESES)];
+        for rank in 0..set.count() {
+            starts[provider(rank, false)] = &ranked[rank];
+            starts[provider(rank, true)] = &refined[rank];
+        }
+        if let Some(extra) = extra {
+            starts[2] = extra;
+        }
+        let starts = &starts[..provider_count(set.count()).max(3)];
+        let all_roots = self.problem.all_roots().filter(|r| fallback && r.has_start_system()).map(AllRootsFallback);
+        let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, starts, &simulator, &self.validator)
+            .with_schedule(schedule)
+            .with_options(PipelineOptions { fallback, ..PipelineOptions::default() });
+        if let Some(f) = &all_roots {
+            pipeline = pipeline.with_fallback(f);
+        }
+        pipeline.solve_canonical(&Canon(&*self.problem), p)
     }
 
     /// [`Solver::solve`] on every element of `data`, in order, across rayon's threads.
@@ -243,5 +288,17 @@ where
         Check<S::Validator, NX, ND>: Send,
     {
         data.par_iter().map(|p| self.solve(p)).collect()
+    }
+}
+
+/// An empty provider slot (slot 2 without a caller's provider).
+struct NoStart;
+
+impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for NoStart {
+    fn name(&self) -> &'static str {
+        "none"
+    }
+    fn start(&self, _: &D) -> Result<SVector<f64, NX>, StartError> {
+        Err(StartError { provider: "none", reason: "no start provider in this slot".to_string() })
     }
 }

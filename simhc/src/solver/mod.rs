@@ -13,10 +13,12 @@
 //! - [`parts`]: the parts a solve is assembled from (tracked parameters, random and refined
 //!   starts, the canonical frame);
 //! - [`subsystem`]: all roots of a square subsystem;
+//! - [`hypotheses`]: a learned start's several hypotheses, ranked on the data;
 //! - [`library`]: the solver, [`Solver`];
 //! - [`estimate`]: the robust estimator, [`Solver::estimate`].
 
 pub mod estimate;
+pub mod hypotheses;
 pub mod library;
 pub mod parts;
 pub mod problem;

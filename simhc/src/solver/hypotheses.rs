@@ -1,0 +1,203 @@
+//! Several start hypotheses from one forward pass: a learned start trained with a
+//! winner-takes-all loss predicts [`LearnedStart::hypotheses`] guesses of the unknowns and a
+//! score for each; they are ranked by their scores (an unscored network's by how well each
+//! explains all of the data's rows, [`DeclaredProblem::row_error`] squared and summed) and
+//! tracked in that order before any fallback. Why rank: the network is trained so that *one*
+//! of its guesses is close, not a given one; its scores are trained to say which.
+//!
+//! The start providers of a solve are laid out as [`provider`] says: the first-ranked guess
+//! plain and refined at 0 and 1 (where a schedule of one hypothesis, [`super::shipped_schedule`],
+//! expects them), index 2 free for a caller's extra provider (the bench's random start), then
+//! the other ranks in pairs.
+
+use super::problem::DeclaredProblem;
+use crate::pipeline::{Attempt, InputRows, LearnedStart, Method, StartError, StartProvider, MAX_HYPOTHESES};
+use crate::ProblemLayout;
+use nalgebra::SVector;
+use std::cell::RefCell;
+use std::marker::PhantomData;
+
+/// The index of the start provider of hypothesis `rank` (0 is the first-ranked), plain or
+/// refined on all rows, in a solve's provider list (module docs).
+pub const fn provider(rank: usize, refined: bool) -> usize {
+    let pair = if rank == 0 { 0 } else { 1 + 2 * rank };
+    pair + refined as usize
+}
+
+/// The providers' slots a solve with `hypotheses` hypotheses needs.
+pub const fn provider_count(hypotheses: usize) -> usize {
+    provider(if hypotheses == 0 { 0 } else { hypotheses - 1 }, true) + 1
+}
+
+/// `base` (a schedule of one hypothesis over providers 0 and 1, [`super::shipped_schedule`])
+/// for `hypotheses` ranked hypotheses: its attempts other than Simulator HC on every hypothesis
+/// in rank order (cheap: a refinement and Gauss-Newton, a few microseconds each), then its
+/// Simulator HC attempts on every hypothesis in rank order. With one hypothesis, `base` itself.
+pub fn ranked_schedule(base: &[Attempt], hypotheses: usize) -> Vec<Attempt> {
+    let mut out = Vec::with_capacity(base.len() * hypotheses.max(1));
+    let map = |a: &Attempt, rank: usize| Attempt { provider: provider(rank, a.provider == 1), method: a.method };
+    let is_path = |a: &&Attempt| matches!(a.method, Method::SimulatorHc | Method::OtherSimulatorHc(_));
+    for rank in 0..hypotheses.max(1) {
+        out.extend(base.iter().filter(|a| !is_path(a)).map(|a| map(a, rank)));
+    }
+    for rank in 0..hypotheses.max(1) {
+        out.extend(base.iter().filter(is_path).map(|a| map(a, rank)));
+    }
+    out
+}
+
+/// The ranked hypotheses of one solve, computed at the first request and kept for the data
+/// they were computed from (a solve asks for them on one canonical data vector).
+pub struct RankedStarts<'a, S, R, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+    learned: &'a LearnedStart<R>,
+    problem: &'a S,
+    ranked: RefCell<Option<Cached<NX, ND>>>,
+    sizes: PhantomData<fn() -> [(); NF]>,
+}
+
+/// The data the hypotheses were ranked for, and the ranking.
+type Cached<const NX: usize, const ND: usize> = (SVector<f64, ND>, Result<Ranked<NX>, StartError>);
+
+/// Hypotheses in rank order.
+#[derive(Clone, Copy)]
+struct Ranked<const NX: usize> {
+    x: [SVector<f64, NX>; MAX_HYPOTHESES],
+    count: usize,
+}
+
+impl<'a, S, R, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
+    RankedStarts<'a, S, R, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    R: InputRows,
+{
+    /// The hypotheses of `learned`, ranked on `problem`'s rows.
+    pub fn new(learned: &'a LearnedStart<R>, problem: &'a S) -> Self {
+        Self { learned, problem, ranked: RefCell::new(None), sizes: PhantomData }
+    }
+
+    /// Hypotheses per prediction.
+    pub fn count(&self) -> usize {
+        self.learned.hypotheses()
+    }
+
+    /// The hypothesis of rank `rank` for data `p`.
+    pub fn start(&self, p: &SVector<f64, ND>, rank: usize) -> Result<SVector<f64, NX>, StartError> {
+        let mut cache = self.ranked.borrow_mut();
+        let stale = !matches!(&*cache, Some((q, _)) if q == p);
+        if stale {
+            *cache = Some((*p, self.rank(p)));
+        }
+        let Some((_, ranked)) = &*cache else { unreachable!("just filled") };
+        match ranked {
+            Ok(r) if rank < r.count => Ok(r.x[rank]),
+            Ok(_) => Err(StartError { provider: "learned", reason: format!("no hypothesis of rank {rank}") }),
+            Err(e) => Err(e.clone()),
+        }
+    }
+
+    /// Predicts every hypothesis and sorts them by the data's summed squared row errors
+    /// (stable: ties keep the network's order).
+    fn rank(&self, p: &SVector<f64, ND>) -> Result<Ranked<NX>, StartError> {
+        let blocks = self.learned.blocks();
+        let count = blocks.count;
+        let mut out = [0.0f64; crate::regressor::MAX_WIDTH];
+        self.learned
+            .predict_all(p.as_slice(), &mut out[..blocks.outputs()])
+            .map_err(|e| StartError { provider: "learned", reason: e.to_string() })?;
+        let mut ranked = Ranked { x: [SVector::zeros(); MAX_HYPOTHESES], count };
+        // Lower first: the negated score, or the data's residual.
+        let mut score = [0.0f64; MAX_HYPOTHESES];
+        for k in 0..count {
+            ranked.x[k] = SVector::from_column_slice(&out[k * NX..(k + 1) * NX]);
+            score[k] = match blocks.score(&out, k) {
+                Some(s) => -s,
+                None if count > 1 => self.score(&ranked.x[k], p),
+                None => 0.0,
+            };
+        }
+        // Insertion sort of a handful: stable, no allocation.
+        for i in 1..count {
+            let mut j = i;
+            while j > 0 && score[j - 1].total_cmp(&score[j]).is_gt() {
+                score.swap(j - 1, j);
+                ranked.x.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+        Ok(ranked)
+    }
+
+    /// Summed squared row errors of `x` over all rows of the data `p` (NaN counts as infinite).
+    fn score(&self, x: &SVector<f64, NX>, p: &SVector<f64, ND>) -> f64 {
+        let layout = S::Data::LAYOUT;
+        let (rows, per_row) = (layout.rows, layout.per_row);
+        let globals = &p.as_slice()[rows * per_row..];
+        let total: f64 = (0..rows).map(|i| self.problem.row_error(x, &p.as_slice()[i * per_row..(i + 1) * per_row], globals).powi(2)).sum();
+        if total.is_nan() {
+            f64::INFINITY
+        } else {
+            total
+        }
+    }
+}
+
+/// The hypothesis of one rank as a start provider.
+pub struct RankedStart<'h, 'a, S, R, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+    /// The solve's hypotheses.
+    pub set: &'h RankedStarts<'a, S, R, NX, NF, NP, NC, ND>,
+    /// Its rank (0: the best-ranked).
+    pub rank: usize,
+}
+
+impl<S, R, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
+    for RankedStart<'_, '_, S, R, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    R: InputRows,
+{
+    fn name(&self) -> &'static str {
+        if self.rank == 0 {
+            "learned"
+        } else {
+            "learned, another hypothesis"
+        }
+    }
+    fn start(&self, p: &SVector<f64, ND>) -> Result<SVector<f64, NX>, StartError> {
+        self.set.start(p, self.rank)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn providers_keep_the_one_hypothesis_slots_and_never_collide() {
+        assert_eq!((provider(0, false), provider(0, true)), (0, 1));
+        assert_eq!((provider(1, false), provider(1, true)), (3, 4));
+        assert_eq!(provider_count(1), 2);
+        assert_eq!(provider_count(3), 7);
+        let mut seen: Vec<usize> = (0..MAX_HYPOTHESES).flat_map(|k| [provider(k, false), provider(k, true)]).collect();
+        seen.sort();
+        seen.dedup();
+        assert_eq!(seen.len(), 2 * MAX_HYPOTHESES);
+        assert!(!seen.contains(&2), "slot 2 is the caller's");
+    }
+
+    #[test]
+    fn ranked_schedule_tries_the_cheap_attempts_of_every_hypothesis_before_paths() {
+        let base = super::super::shipped_schedule(true);
+        assert_eq!(ranked_schedule(base, 1), base.to_vec());
+        let s = ranked_schedule(base, 2);
+        let expect = [
+            (1, Method::Start),
+            (1, Method::GaussNewton),
+            (4, Method::Start),
+            (4, Method::GaussNewton),
+            (0, Method::SimulatorHc),
+            (3, Method::SimulatorHc),
+        ];
+        assert_eq!(s.iter().map(|a| (a.provider, a.method)).collect::<Vec<_>>(), expect);
+    }
+}

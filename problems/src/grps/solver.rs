@@ -21,7 +21,8 @@
 //!    Regressor ([`GrpsSolver::predict`]): canonical rows ([`super::features`]), the folded
 //!    network, `(R, t, s)` decoded from the 6D rotation, canonical translation and log scale.
 //! 3. Attempts (start hypothesis x method), in order, until one is accepted:
-//!    the prediction, its rotation with the least-squares `(t, s)`
+//!    the prediction (with a network of several hypotheses: the first-ranked, then the others
+//!    in rank order, [`GrpsSolver::predict_all`]), its rotation with the least-squares `(t, s)`
 //!    ([`super::refine::translation_scale_for_rotation`]), the prediction of the swapped
 //!    problem (view 2 first, [`super::features::swap_views`]) and its rotation with
 //!    least-squares `(t, s)`, each with the [`GrpsSolverOptions::methods`] (default: Simulator

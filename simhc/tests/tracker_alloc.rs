@@ -161,16 +161,21 @@ fn tracking_does_not_allocate() {
     assert_eq!(n, 0, "drag steps: {n} allocations");
 }
 
-#[test]
-fn a_learned_start_predicts_without_allocating() {
+/// The layout of a learned start's tests: unknowns `q` (quaternion) and `t` (3-vector), `rows`
+/// rows of one 3-vector `f`.
+fn quat_and_vector_layout(rows: usize) -> simhc::layout::Layout {
     use simhc::layout::{FieldKind, FieldLayout, Layout};
-    use simhc::pipeline::LearnedStart;
-    use simhc::regressor::{DenseLayer, FoldedNetwork};
     const UNKNOWNS: &[FieldLayout] =
         &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "t", kind: FieldKind::Vector(3), offset: 4 }];
     const ROW: &[FieldLayout] = &[FieldLayout { name: "f", kind: FieldKind::Vector(3), offset: 0 }];
-    let layout =
-        Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 5, per_row: 3, equations_per_row: 1, parameter_free: &[], norms: &[] };
+    Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows, per_row: 3, equations_per_row: 1, parameter_free: &[], norms: &[] }
+}
+
+#[test]
+fn a_learned_start_predicts_without_allocating() {
+    use simhc::pipeline::LearnedStart;
+    use simhc::regressor::{DenseLayer, FoldedNetwork};
+    let layout = quat_and_vector_layout(5);
     let point = DenseLayer::new(3, 8, (0..24).map(|i| (i as f32 * 0.37).sin()).collect(), vec![0.1; 8]).unwrap();
     let head = DenseLayer::new(8, 7, (0..56).map(|i| (i as f32 * 0.11).cos()).collect(), vec![0.2; 7]).unwrap();
     let start = LearnedStart::new(FoldedNetwork::new(3, vec![point], vec![head], false).unwrap(), layout).unwrap();
@@ -187,14 +192,9 @@ fn a_learned_start_predicts_without_allocating() {
 /// without allocating; outputs that are not blocks of the unknowns are refused.
 #[test]
 fn a_learned_start_with_hypotheses_returns_the_best_scored_one() {
-    use simhc::layout::{FieldKind, FieldLayout, Layout};
     use simhc::pipeline::LearnedStart;
     use simhc::regressor::{DenseLayer, FoldedNetwork, HypothesisBlocks};
-    const UNKNOWNS: &[FieldLayout] =
-        &[FieldLayout { name: "q", kind: FieldKind::Quat, offset: 0 }, FieldLayout { name: "t", kind: FieldKind::Vector(3), offset: 4 }];
-    const ROW: &[FieldLayout] = &[FieldLayout { name: "f", kind: FieldKind::Vector(3), offset: 0 }];
-    let layout =
-        Layout { unknowns: UNKNOWNS, row: ROW, globals: &[], rows: 2, per_row: 3, equations_per_row: 1, parameter_free: &[], norms: &[] };
+    let layout = quat_and_vector_layout(2);
     // Zero weights: the outputs are the head's biases, two blocks of 7 and their scores.
     let network = |bias: Vec<f32>| {
         let point = DenseLayer::new(3, 4, vec![0.0; 12], vec![0.0; 4]).unwrap();

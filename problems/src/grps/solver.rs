@@ -75,8 +75,9 @@ use std::time::{Duration, Instant};
 pub use simhc::pipeline::AttemptError;
 use thiserror::Error;
 
-/// Most start hypotheses per prediction a GRPS network may output.
-pub const MAX_HYPOTHESES: usize = 8;
+/// Most start hypotheses per prediction a GRPS network may output: the runtime's bound, the
+/// same for every learned start.
+pub use simhc::pipeline::MAX_HYPOTHESES;
 
 /// The shipped GRPS regressor (trained by `simhc train grps`).
 pub static GRPS_WEIGHTS: &[u8] = include_bytes!("../../weights/grps.folded");

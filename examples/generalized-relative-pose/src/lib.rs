@@ -223,6 +223,31 @@ fn plane_angle(r: &Matrix3<f64>, t: &Vector3<f64>, [f, v, fp, vp]: &[Vector3<f64
     }
 }
 
+/// The Sampson error of a correspondence under `(r, t)`, as an angle: the coplanarity residual
+/// `a = f . n` (`n = R fp x (R vp + t - v)`) over its first-order standard deviation when both
+/// bearings carry isotropic angular noise, `sqrt(|P_f grad_f a|^2 + |P_fp grad_fp a|^2)` with
+/// `P_u` the projection onto the tangent plane of the unit sphere at `u`. Unlike the plane
+/// angle of `f` alone, it also charges the noise of `fp`, so that its minimum over many
+/// correspondences is the first-order maximum-likelihood pose and one threshold means the
+/// same for every correspondence.
+fn sampson_angle(r: &Matrix3<f64>, t: &Vector3<f64>, [f, v, fp, vp]: &[Vector3<f64>; 4]) -> f64 {
+    let (f, fp) = (f.normalize(), fp.normalize());
+    let rfp = r * fp;
+    let b = r * vp + t - v;
+    let n = rfp.cross(&b);
+    let a = f.dot(&n);
+    // grad_fp a = R^T (b x f).
+    let m = r.transpose() * b.cross(&f);
+    let variance = (n.norm_squared() - f.dot(&n).powi(2)) + (m.norm_squared() - fp.dot(&m).powi(2));
+    if variance > 0.0 {
+        a.abs() / variance.sqrt()
+    } else if a == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    }
+}
+
 impl Validator<Params, 7> for Coplanarity {
     /// (correspondences met behind a rig, largest angle to the plane in radians)
     type Check = (usize, f64);
@@ -316,15 +341,15 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
     fn all_roots(&self) -> Option<&dyn AllRoots<7, 84>> {
         Some(&self.all_roots)
     }
-    /// The robust estimator's error: the angle (radians) between `f` and the plane of its
-    /// match's ray and the baseline, as the validator measures it.
+    /// The robust estimator's error: the Sampson error of the coplanarity equation, as an
+    /// angle (radians) when both bearings carry angular noise (`sampson_angle`).
     fn row_error(&self, x: &Unknowns, row: &[f64], _globals: &[f64]) -> f64 {
         if row.len() != 12 {
             return f64::INFINITY;
         }
         let (r, t) = pose(x);
         let fields = std::array::from_fn(|k| Vector3::new(row[3 * k], row[3 * k + 1], row[3 * k + 2]));
-        let e = plane_angle(&r, &t, &fields);
+        let e = sampson_angle(&r, &t, &fields);
         if e.is_nan() {
             f64::INFINITY
         } else {

@@ -262,3 +262,65 @@ fn the_robust_estimator_finds_the_pose_among_wrong_matches() {
     assert!(e_r < 1e-6 && e_t < 1e-6, "{e_r} deg, {e_t} %");
     assert_eq!(info.inlier_mask, inlier, "exactly the true matches are inliers");
 }
+
+/// With 1 px of noise and 30 % wrong matches, the estimate is within the noise (the peers
+/// harness's success, E_t < 5 %) and keeps the true matches. A local optimization that stops
+/// short of the error's minimum (Gauss-Newton on the algebraic equations with the error's scale
+/// frozen, before 2026-12-03 evening) leaves the translation off by several percent on such
+/// data (`bench/peers/robust_grp.py`, `BENCHMARKS.md`).
+#[test]
+fn the_robust_estimate_is_within_the_noise() {
+    use nalgebra::Vector3;
+    use rand::Rng;
+    use simhc::solver::DeclaredProblem;
+    let seed = 43;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let sigma = 1.0 / generalized_relative_pose::FOCAL_PX;
+    let gaussian = |rng: &mut ChaCha8Rng| -> f64 {
+        let (u1, u2): (f64, f64) = (rng.random::<f64>().max(f64::MIN_POSITIVE), rng.random());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    };
+    let perturb = |f: Vector3<f64>, rng: &mut ChaCha8Rng| {
+        let n = Vector3::from_fn(|_, _| gaussian(rng) * sigma);
+        (f + (n - f * f.dot(&n))).normalize()
+    };
+    let q = generalized_relative_pose::random_rotation(&mut rng);
+    let (r, t) = (q.to_rotation_matrix().into_inner(), Vector3::new(1.2, -0.6, 0.9));
+    let cams =
+        |rng: &mut ChaCha8Rng| -> Vec<Vector3<f64>> { (0..4).map(|_| Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0))).collect() };
+    let (rig1, rig2) = (cams(&mut rng), cams(&mut rng));
+    let (mut rows, mut inlier) = (Vec::new(), Vec::new());
+    for k in 0..150 {
+        let x = Vector3::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(4.0..20.0));
+        let (v, vp) = (rig1[rng.random_range(0..4)], rig2[rng.random_range(0..4)]);
+        let f = perturb((x - v).normalize(), &mut rng);
+        let good = k % 10 >= 3;
+        let fp = if good {
+            perturb((r.transpose() * (x - t) - vp).normalize(), &mut rng)
+        } else {
+            Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)).normalize()
+        };
+        rows.extend(f.iter().chain(v.iter()).chain(fp.iter()).chain(vp.iter()));
+        inlier.push(good);
+    }
+    let threshold = 3.0 * std::f64::consts::SQRT_2 * sigma;
+    let problem = GenRelPose::new();
+    let truth = SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z]);
+    let cost = |x: &SVector<f64, 7>| -> f64 {
+        rows.chunks_exact(12)
+            .zip(&inlier)
+            .filter(|(_, good)| **good)
+            .map(|(row, _)| (1.0 + (problem.row_error(x, row, &[]) / threshold).powi(2)).ln())
+            .sum()
+    };
+    let solver = simhc::solver::Solver::with_weights(GenRelPose::new(), generalized_relative_pose::WEIGHTS, 1.0).expect("shipped weights");
+    let options = simhc::ransac::RansacOptions { seed, max_iterations: 300, ..simhc::ransac::RansacOptions::poselib(threshold) };
+    let (x, info) = solver.estimate(&rows, &[], &options).expect("a pose");
+    let [e_r, e_t] = errors(&x, &truth);
+    let (at_estimate, at_truth) = (cost(&x), cost(&truth));
+    println!("E_R {e_r:.3} deg, E_t {e_t:.2} %, cost {at_estimate:.3} (truth {at_truth:.3}), {} inliers", info.inliers.len());
+    assert!(e_r < 0.5 && e_t < 5.0, "{e_r} deg, {e_t} %");
+    let recalled = info.inlier_mask.iter().zip(&inlier).filter(|(a, b)| **a && **b).count();
+    assert!(recalled as f64 >= 0.95 * inlier.iter().filter(|b| **b).count() as f64, "{recalled} true matches kept");
+}

@@ -9,9 +9,10 @@
 //!   ([`DeclaredProblem::row_error`]; by default the largest absolute row residual,
 //!   [`row_residual`]).
 //! - **Local optimization** (LO-RANSAC) every time a better model appears, and on the final
-//!   model: Gauss-Newton with a Cauchy loss on the row equations of all inliers, whatever their
-//!   count, each row scaled to the problem's error, then put back on the equations without
-//!   parameters ([`crate::onto_parameter_free`]); kept when it lowers the MSAC cost.
+//!   model: Gauss-Newton with a Cauchy loss on the problem's errors of all inliers, whatever
+//!   their count (each error's gradient by forward differences), the equations without
+//!   parameters held as stiff constraints and restored after each step
+//!   ([`crate::onto_parameter_free`]); kept when it lowers the MSAC cost.
 //! - **Stopping**: the exact rule of [`crate::ransac`] (a sample drawn without replacement),
 //!   between [`RansacOptions::min_iterations`] and [`RansacOptions::max_iterations`];
 //!   [`RansacOptions::poselib`] gives PoseLib's defaults.
@@ -141,6 +142,28 @@ fn largest<const NF: usize>(f: &SVector<f64, NF>, epr: usize) -> f64 {
 /// Gauss-Newton iterations of the local optimization.
 const LO_ITERATIONS: usize = 10;
 
+/// Relative step of the forward differences of the local optimization's error gradients.
+const DIFFERENCE_STEP: f64 = 1e-7;
+
+/// Halvings of a local optimization step that does not lower the robust cost, before giving up.
+const HALVINGS: i32 = 4;
+
+/// Weight of the equations without parameters in the local optimization's normal equations,
+/// relative to the largest curvature of the rows'.
+const CONSTRAINT_WEIGHT: f64 = 1e6;
+
+/// The residuals and Jacobian rows of the equations without parameters at `x` (they do not
+/// depend on the parameters: zeros).
+fn constraint_rows<Q, const NX: usize, const NF: usize, const NP: usize>(
+    x: &SVector<f64, NX>,
+    f: &mut SVector<f64, NF>,
+    j: &mut SMatrix<f64, NF, NX>,
+) where
+    Q: Problem<NX, NF, NP>,
+{
+    Q::residual_jacobian(x, &SVector::<f64, NP>::zeros(), f, j);
+}
+
 /// The RANSAC view of a solver: rows in, validated sample solutions out.
 struct Samples<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
 where
@@ -180,10 +203,9 @@ where
         self.solver.problem().row_error(x, row, self.globals)
     }
 
-    /// Gauss-Newton with a Cauchy loss on the inliers' errors, then back onto the equations
-    /// without parameters. Each row's equations are scaled so that their residual measures the
-    /// problem's error ([`DeclaredProblem::row_error`], the unit of the threshold and of the
-    /// Cauchy scale): a first-order geometric error from the algebraic one.
+    /// Gauss-Newton with a Cauchy loss on the inliers' errors ([`DeclaredProblem::row_error`],
+    /// the unit of the threshold and of the Cauchy scale), then back onto the equations without
+    /// parameters, each step halved until the robust cost falls.
     fn refine(&self, x0: &SVector<f64, NX>, data: &[&'a [f64]], inliers: &[usize]) -> Option<SVector<f64, NX>> {
         let c2 = self.threshold * self.threshold;
         let problem = self.solver.problem();
@@ -203,29 +225,36 @@ where
             let mut h = SMatrix::<f64, NX, NX>::zeros();
             let mut g = SVector::<f64, NX>::zeros();
             for &i in inliers {
-                let epr = row_equations::<S::Tracked, NX, NF, NP>(&x, data[i], self.globals, &mut f, Some(&mut j))?;
-                let e = problem.row_error(&x, data[i], self.globals);
-                let algebraic = largest(&f, epr);
-                // Scale to the problem's error where both are measurable; else leave as is.
-                let scale = if algebraic > 0.0 && algebraic.is_finite() && e.is_finite() && e > 0.0 { e / algebraic } else { 1.0 };
-                // Cauchy weight (iteratively reweighted least squares) on the scaled residual.
-                for k in 0..epr {
-                    let r = scale * f[k];
-                    let w = scale * scale / (1.0 + r * r / c2);
-                    let row = j.row(k);
-                    h += w * row.transpose() * row;
-                    g += w * f[k] * row.transpose();
-                }
+                let Some((e, de)) = self.signed_error_gradient(&x, data[i]) else { continue };
+                // Cauchy weight (iteratively reweighted least squares) on the signed error.
+                let w = 1.0 / (1.0 + e * e / c2);
+                h += w * de * de.transpose();
+                g += w * e * de;
+            }
+            // The equations without parameters (unit quaternions, unit vectors) as stiff
+            // constraints on the step: the row equations of a polynomial rotation change with
+            // the norm of its quaternion while the problem's error does not, and a step that
+            // shrinks that norm lowers the residual, is undone by the projection below and
+            // stalls the descent short of the minimum.
+            let scale = 1.0 + h.diagonal().amax();
+            constraint_rows::<S::Tracked, NX, NF, NP>(&x, &mut f, &mut j);
+            for &e in S::Tracked::LAYOUT.parameter_free {
+                let row = j.row(e);
+                h += CONSTRAINT_WEIGHT * scale * row.transpose() * row;
+                g += CONSTRAINT_WEIGHT * scale * f[e] * row.transpose();
             }
             // A little damping: unit-norm unknowns leave directions with no curvature.
-            let damping = 1e-9 * (1.0 + h.diagonal().amax());
+            let damping = 1e-9 * scale;
             h += SMatrix::<f64, NX, NX>::identity() * damping;
             let step = h.cholesky()?.solve(&g);
-            let moved = crate::onto_parameter_free::<S::Tracked, NX, NF, NP>(&(x - step), 1e-12, 8).ok()?;
-            let next = cost(&moved);
-            if next.is_nan() || next >= current {
+            // The reweighted step can overshoot the robust cost: halve it a few times first.
+            let Some((moved, next)) = (0..HALVINGS).find_map(|k| {
+                let moved = crate::onto_parameter_free::<S::Tracked, NX, NF, NP>(&(x - step * 0.5f64.powi(k)), 1e-12, 8).ok()?;
+                let next = cost(&moved);
+                (next < current).then_some((moved, next))
+            }) else {
                 break;
-            }
+            };
             let small = (moved - x).amax() <= 1e-12 * (1.0 + x.amax());
             (x, current) = (moved, next);
             if small {
@@ -233,6 +262,39 @@ where
             }
         }
         x.iter().all(|v| v.is_finite()).then_some(x)
+    }
+}
+
+impl<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Samples<'a, S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    /// The problem's error of `row` at `x` with the sign of the row's largest equation, so that
+    /// it is a smooth residual through zero; `None` where it is not finite.
+    fn signed_error(&self, x: &SVector<f64, NX>, row: &[f64]) -> Option<f64> {
+        let e = self.solver.problem().row_error(x, row, self.globals);
+        let mut f = SVector::<f64, NF>::zeros();
+        let epr = row_equations::<S::Tracked, NX, NF, NP>(x, row, self.globals, &mut f, None)?;
+        let k = (0..epr).max_by(|a, b| f[*a].abs().total_cmp(&f[*b].abs()))?;
+        e.is_finite().then_some(if f[k] < 0.0 { -e } else { e })
+    }
+
+    /// [`Samples::signed_error`] and its gradient by forward differences. The error's own
+    /// gradient, not that of the algebraic row equations scaled to it: a geometric error
+    /// divides by a norm that moves with the unknowns (the baseline's length in a
+    /// generalized epipolar error), and Gauss-Newton on the scaled equations with that scale
+    /// frozen stops at a point biased along it (the translation's length), short of the
+    /// error's minimum.
+    fn signed_error_gradient(&self, x: &SVector<f64, NX>, row: &[f64]) -> Option<(f64, SVector<f64, NX>)> {
+        let e = self.signed_error(x, row)?;
+        let mut grad = SVector::<f64, NX>::zeros();
+        for k in 0..NX {
+            let step = DIFFERENCE_STEP * (1.0 + x[k].abs());
+            let mut moved = *x;
+            moved[k] += step;
+            grad[k] = (self.signed_error(&moved, row)? - e) / step;
+        }
+        Some((e, grad))
     }
 }
 

@@ -222,34 +222,60 @@ fn the_library_solver_solves_seeded_scenes_in_random_frames() {
     assert!(err.to_string().contains("row 2") && err.to_string().contains("`vp`"), "{err}");
 }
 
+/// `n` correspondences of two rigs of 4 cameras under `(r, t)`, bearings with angular noise
+/// `sigma` (no draw at all when 0), and a random bearing in rig 2 where `good(k)` is false:
+/// the rows (12 numbers each) and which of them are true matches.
+fn rig_matches(
+    rng: &mut ChaCha8Rng,
+    r: &nalgebra::Matrix3<f64>,
+    t: &nalgebra::Vector3<f64>,
+    n: usize,
+    sigma: f64,
+    good: impl Fn(usize) -> bool,
+) -> (Vec<f64>, Vec<bool>) {
+    use nalgebra::Vector3;
+    use rand::Rng;
+    let gaussian = |rng: &mut ChaCha8Rng| -> f64 {
+        let (u1, u2): (f64, f64) = (rng.random::<f64>().max(f64::MIN_POSITIVE), rng.random());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    };
+    let perturb = |f: Vector3<f64>, rng: &mut ChaCha8Rng| {
+        if sigma == 0.0 {
+            return f;
+        }
+        let d = Vector3::from_fn(|_, _| gaussian(rng) * sigma);
+        (f + (d - f * f.dot(&d))).normalize()
+    };
+    let cams =
+        |rng: &mut ChaCha8Rng| -> Vec<Vector3<f64>> { (0..4).map(|_| Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0))).collect() };
+    let (rig1, rig2) = (cams(rng), cams(rng));
+    let (mut rows, mut inlier) = (Vec::new(), Vec::new());
+    for k in 0..n {
+        let x = Vector3::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(4.0..20.0));
+        let (v, vp) = (rig1[rng.random_range(0..4)], rig2[rng.random_range(0..4)]);
+        let f = perturb((x - v).normalize(), rng);
+        let fp = if good(k) {
+            perturb((r.transpose() * (x - t) - vp).normalize(), rng)
+        } else {
+            Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)).normalize()
+        };
+        rows.extend(f.iter().chain(v.iter()).chain(fp.iter()).chain(vp.iter()));
+        inlier.push(good(k));
+    }
+    (rows, inlier)
+}
+
 /// The robust estimator on 60 correspondences of two rigs, 20 % of them wrong matches.
 #[test]
 fn the_robust_estimator_finds_the_pose_among_wrong_matches() {
     use nalgebra::Vector3;
-    use rand::Rng;
     use simhc::solver::DeclaredProblem;
     let seed = 41;
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let q = generalized_relative_pose::random_rotation(&mut rng);
     let (r, t) = (q.to_rotation_matrix().into_inner(), Vector3::new(0.5, -1.0, 0.8));
-    let cams =
-        |rng: &mut ChaCha8Rng| -> Vec<Vector3<f64>> { (0..4).map(|_| Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0))).collect() };
-    let (rig1, rig2) = (cams(&mut rng), cams(&mut rng));
-    let (mut rows, mut inlier) = (Vec::new(), Vec::new());
-    for k in 0..60 {
-        let x = Vector3::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(4.0..20.0));
-        let (v, vp) = (rig1[rng.random_range(0..4)], rig2[rng.random_range(0..4)]);
-        let f = (x - v).normalize();
-        let good = k % 5 != 0;
-        let fp = if good {
-            (r.transpose() * (x - t) - vp).normalize()
-        } else {
-            Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)).normalize()
-        };
-        rows.extend(f.iter().chain(v.iter()).chain(fp.iter()).chain(vp.iter()));
-        inlier.push(good);
-    }
+    let (rows, inlier) = rig_matches(&mut rng, &r, &t, 60, 0.0, |k| k % 5 != 0);
     let problem = GenRelPose::new();
     let truth = SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z]);
     assert!(problem.row_error(&truth, &rows[12..24], &[]) < 1e-12, "an inlier's error at the truth is zero");
@@ -271,39 +297,14 @@ fn the_robust_estimator_finds_the_pose_among_wrong_matches() {
 #[test]
 fn the_robust_estimate_is_within_the_noise() {
     use nalgebra::Vector3;
-    use rand::Rng;
     use simhc::solver::DeclaredProblem;
     let seed = 43;
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let sigma = 1.0 / generalized_relative_pose::FOCAL_PX;
-    let gaussian = |rng: &mut ChaCha8Rng| -> f64 {
-        let (u1, u2): (f64, f64) = (rng.random::<f64>().max(f64::MIN_POSITIVE), rng.random());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    };
-    let perturb = |f: Vector3<f64>, rng: &mut ChaCha8Rng| {
-        let n = Vector3::from_fn(|_, _| gaussian(rng) * sigma);
-        (f + (n - f * f.dot(&n))).normalize()
-    };
     let q = generalized_relative_pose::random_rotation(&mut rng);
     let (r, t) = (q.to_rotation_matrix().into_inner(), Vector3::new(1.2, -0.6, 0.9));
-    let cams =
-        |rng: &mut ChaCha8Rng| -> Vec<Vector3<f64>> { (0..4).map(|_| Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0))).collect() };
-    let (rig1, rig2) = (cams(&mut rng), cams(&mut rng));
-    let (mut rows, mut inlier) = (Vec::new(), Vec::new());
-    for k in 0..150 {
-        let x = Vector3::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(4.0..20.0));
-        let (v, vp) = (rig1[rng.random_range(0..4)], rig2[rng.random_range(0..4)]);
-        let f = perturb((x - v).normalize(), &mut rng);
-        let good = k % 10 >= 3;
-        let fp = if good {
-            perturb((r.transpose() * (x - t) - vp).normalize(), &mut rng)
-        } else {
-            Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)).normalize()
-        };
-        rows.extend(f.iter().chain(v.iter()).chain(fp.iter()).chain(vp.iter()));
-        inlier.push(good);
-    }
+    let (rows, inlier) = rig_matches(&mut rng, &r, &t, 150, sigma, |k| k % 10 >= 3);
     let threshold = 3.0 * std::f64::consts::SQRT_2 * sigma;
     let problem = GenRelPose::new();
     let truth = SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z]);

@@ -87,14 +87,13 @@ pub enum EstimateError {
 }
 
 /// The row equations of one row (`row`: its numbers, `globals`: the global numbers) at `x`,
-/// written into `f` (the first `equations_per_row` entries matter), with their Jacobian rows in
-/// `j` when asked. `None` for rows or globals of the wrong length.
+/// written into `f` (the first `equations_per_row` entries matter). `None` for rows or globals
+/// of the wrong length.
 fn row_equations<Q, const NX: usize, const NF: usize, const NP: usize>(
     x: &SVector<f64, NX>,
     row: &[f64],
     globals: &[f64],
     f: &mut SVector<f64, NF>,
-    j: Option<&mut SMatrix<f64, NF, NX>>,
 ) -> Option<usize>
 where
     Q: Problem<NX, NF, NP> + ProblemLayout,
@@ -108,10 +107,7 @@ where
         p.as_mut_slice()[r * layout.per_row..(r + 1) * layout.per_row].copy_from_slice(row);
     }
     p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(globals);
-    match j {
-        Some(j) => Q::residual_jacobian(x, &p, f, j),
-        None => Q::residual(x, &p, f),
-    }
+    Q::residual(x, &p, f);
     Some(layout.equations_per_row)
 }
 
@@ -123,7 +119,7 @@ where
     Q: Problem<NX, NF, NP> + ProblemLayout,
 {
     let mut f = SVector::<f64, NF>::zeros();
-    match row_equations::<Q, NX, NF, NP>(x, row, globals, &mut f, None) {
+    match row_equations::<Q, NX, NF, NP>(x, row, globals, &mut f) {
         Some(epr) => largest(&f, epr),
         None => f64::INFINITY,
     }
@@ -274,7 +270,7 @@ where
     fn signed_error(&self, x: &SVector<f64, NX>, row: &[f64]) -> Option<f64> {
         let e = self.solver.problem().row_error(x, row, self.globals);
         let mut f = SVector::<f64, NF>::zeros();
-        let epr = row_equations::<S::Tracked, NX, NF, NP>(x, row, self.globals, &mut f, None)?;
+        let epr = row_equations::<S::Tracked, NX, NF, NP>(x, row, self.globals, &mut f)?;
         let k = (0..epr).max_by(|a, b| f[*a].abs().total_cmp(&f[*b].abs()))?;
         e.is_finite().then_some(if f[k] < 0.0 { -e } else { e })
     }

@@ -228,10 +228,10 @@ where
                 g += w * e * de;
             }
             // The equations without parameters (unit quaternions, unit vectors) as stiff
-            // constraints on the step: the row equations of a polynomial rotation change with
-            // the norm of its quaternion while the problem's error does not, and a step that
-            // shrinks that norm lowers the residual, is undone by the projection below and
-            // stalls the descent short of the minimum.
+            // constraints on the step: the problem's error does not change with the norm of a
+            // quaternion, so that direction has no curvature, and a step along it would only be
+            // undone by the projection below. (Added when the rows were the algebraic
+            // equations, whose residual did fall along it and stalled the descent.)
             let scale = 1.0 + h.diagonal().amax();
             constraint_rows::<S::Tracked, NX, NF, NP>(&x, &mut f, &mut j);
             for &e in S::Tracked::LAYOUT.parameter_free {

@@ -4,7 +4,8 @@
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use simhc::ransac::{ransac, RansacOptions};
+use simhc::ransac::RansacOptions;
+use simhc_problems::grps::geometry::GrpsError;
 use simhc_problems::grps::ransac::{reprojection_error, GrpsEstimator};
 use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::grps::solver::{GrpsPose, GrpsSolver, GrpsSolverOptions};
@@ -28,10 +29,10 @@ fn ransac_recovers_the_pose_with_30_percent_outliers() {
             outlier[i] = true;
         }
         let options = RansacOptions { seed, local_optimization: true, ..RansacOptions::default() };
-        let r = ransac(&estimator, &scene.correspondences, &options).expect("a model");
-        let er = rotation_error_deg(&r.model.rotation, &scene.rotation);
-        let et = translation_error_pct(&r.model.translation, &scene.translation);
-        let es = scale_error_pct(r.model.scale, scene.scale);
+        let (model, r) = estimator.estimate(&scene.correspondences, &options).expect("a model");
+        let er = rotation_error_deg(&model.rotation, &scene.rotation);
+        let et = translation_error_pct(&model.translation, &scene.translation);
+        let es = scale_error_pct(model.scale, scene.scale);
         let true_inliers = r.inliers.iter().filter(|&&i| !outlier[i]).count();
         println!(
             "  E_R {er:.3} deg, E_t {et:.2} %, E_s {es:.2} %, {} inliers ({true_inliers} true), {} iterations",
@@ -56,4 +57,16 @@ fn reprojection_error_is_zero_at_the_truth_and_infinite_behind_a_camera() {
         flipped.f = -c.f;
         assert_eq!(reprojection_error(&truth, &flipped), f64::INFINITY);
     }
+}
+
+#[test]
+fn the_estimator_names_a_bad_correspondence_and_needs_a_sample() {
+    let estimator = GrpsEstimator::new(GrpsSolver::new().expect("weights").with_options(GrpsSolverOptions::for_ransac()), 8);
+    let mut scene = GrpsSceneConfig::default().sample_seeded(3).expect("valid config");
+    let options = RansacOptions::poselib(0.01);
+    let err = estimator.estimate(&scene.correspondences[..7], &options).unwrap_err();
+    assert_eq!(err, GrpsError::TooFewCorrespondences { got: 7, need: 8 }.into());
+    scene.correspondences[5].fp.z = f64::NAN;
+    let err = estimator.estimate(&scene.correspondences, &options).unwrap_err();
+    assert_eq!(err, GrpsError::NonFinite { index: 5 }.into());
 }

@@ -13,11 +13,16 @@
 //! A point behind either camera, or rays that are parallel, gives `f64::INFINITY`. The paper's
 //! inlier threshold is `0.01` (8 px at `f = 800`).
 
-use super::geometry::triangulate_depths;
+use super::geometry::{triangulate_depths, validate, GrpsError};
 use super::refine::{refine_pose, LmOptions};
 use super::scene::GrpsCorrespondence;
 use super::solver::{GrpsPose, GrpsSolveError, GrpsSolver};
-use simhc::ransac::Estimator;
+use crate::robust::RobustError;
+use simhc::ransac::{ransac, Estimator, RansacOptions};
+use simhc::solver::EstimateInfo;
+
+/// Why there is no robust GRPS estimate.
+pub type GrpsEstimateError = RobustError<GrpsError>;
 
 /// The normalized reprojection error of one correspondence under `pose` (module docs).
 pub fn reprojection_error(pose: &GrpsPose, c: &GrpsCorrespondence) -> f64 {
@@ -77,6 +82,18 @@ impl GrpsEstimator {
             refine: LmOptions { max_iterations: 20, ..LmOptions::default() },
             hypotheses: 4,
         }
+    }
+
+    /// A robust estimate from `corrs` (any number, at least a sample; checked as the solver
+    /// checks its input): LO-RANSAC with `options` ([`RansacOptions::poselib`] for PoseLib's
+    /// defaults), `options.threshold` in the units of [`reprojection_error`].
+    pub fn estimate(&self, corrs: &[GrpsCorrespondence], options: &RansacOptions) -> Result<(GrpsPose, EstimateInfo), GrpsEstimateError> {
+        validate(corrs)?;
+        if corrs.len() < self.sample_size {
+            return Err(GrpsError::TooFewCorrespondences { got: corrs.len(), need: self.sample_size }.into());
+        }
+        let result = ransac(self, corrs, options).ok_or(RobustError::NoModel { iterations: options.max_iterations })?;
+        Ok(EstimateInfo::split(result))
     }
 }
 

@@ -2,6 +2,7 @@
 pub mod features;
 pub mod geometry;
 pub mod linear;
+pub mod ransac;
 pub mod refine;
 pub mod scene;
 pub mod solver;

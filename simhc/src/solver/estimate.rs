@@ -23,7 +23,7 @@
 use super::library::{sample_schedule, Solver};
 use super::problem::DeclaredProblem;
 use crate::pipeline::learned::NonFiniteParameter;
-use crate::ransac::{ransac, Estimator, RansacOptions};
+use crate::ransac::{ransac, Estimator, RansacOptions, RansacResult};
 use crate::{Problem, ProblemLayout};
 use nalgebra::{SMatrix, SVector};
 use std::marker::PhantomData;
@@ -46,6 +46,22 @@ pub struct EstimateInfo {
     pub score: f64,
     /// Refinements kept (local optimizations and the final rounds).
     pub refinements: usize,
+}
+
+impl EstimateInfo {
+    /// A RANSAC result as its model and this info (every estimator reports the same fields).
+    pub fn split<M>(r: RansacResult<M>) -> (M, EstimateInfo) {
+        let info = EstimateInfo {
+            iterations: r.iterations,
+            hypotheses: r.hypotheses,
+            inlier_ratio: r.inlier_ratio(),
+            inliers: r.inliers,
+            inlier_mask: r.inlier_mask,
+            score: r.score,
+            refinements: r.refinements,
+        };
+        (r.model, info)
+    }
 }
 
 /// Why there is no robust estimate.
@@ -330,15 +346,6 @@ where
         let data: Vec<&[f64]> = rows.chunks_exact(per_row).collect();
         let samples = Samples::<S, NX, NF, NP, NC, ND> { solver: self, globals, threshold: options.threshold, sizes: PhantomData };
         let r = ransac(&samples, &data, options).ok_or(EstimateError::NoModel { iterations: options.max_iterations })?;
-        let info = EstimateInfo {
-            iterations: r.iterations,
-            hypotheses: r.hypotheses,
-            inlier_ratio: r.inlier_ratio(),
-            inliers: r.inliers,
-            inlier_mask: r.inlier_mask,
-            score: r.score,
-            refinements: r.refinements,
-        };
-        Ok((r.model, info))
+        Ok(EstimateInfo::split(r))
     }
 }

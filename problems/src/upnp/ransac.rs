@@ -1,0 +1,158 @@
+//! UPnP inside RANSAC: the Simulator HC solver on samples of a few correspondences as the
+//! minimal solver of [`simhc::ransac::ransac`], the angle between a bearing and the direction
+//! to its point as the per-correspondence error, and Levenberg-Marquardt on the inliers
+//! ([`super::refine::levenberg_marquardt`]) as the local optimization. The shape is PoseLib's
+//! `estimate_generalized_absolute_pose`: correspondences with outliers in, `(pose, info)` out.
+//!
+//! # Samples
+//!
+//! A sample has [`UpnpEstimator::sample_size`] correspondences (default 4, one more than the
+//! minimal 3). Three correspondences have up to 8 poses that explain them exactly, and one
+//! path reaches one of them, not necessarily the true one; a fourth leaves one, so every
+//! sample that is all inliers gives the truth. The solver runs without its all-roots fallback
+//! (about 1 ms, and most samples hold an outlier) and without the linear start (it needs 6
+//! correspondences): one path from the learned start, validated on the sample.
+
+use super::geometry::{validate, UpnpError};
+use super::refine::{levenberg_marquardt, LmOptions};
+use super::scene::UpnpCorrespondence;
+use super::solver::{StartKind, UpnpPose, UpnpSolver, UpnpSolverOptions};
+use crate::metrics::quat_from_rotation;
+use crate::robust::RobustError;
+use simhc::ransac::{ransac, Estimator, RansacOptions};
+use simhc::solver::EstimateInfo;
+
+/// The angle (radians) between the bearing of `c` and the direction from its ray origin to its
+/// point under `pose`; `f64::INFINITY` for a point behind its ray origin or a NaN.
+pub fn angular_error(pose: &UpnpPose, c: &UpnpCorrespondence) -> f64 {
+    let d = pose.rotation * c.p + pose.translation - c.v;
+    let cos = c.f.dot(&d);
+    // Behind the ray origin, or a NaN.
+    if cos.is_nan() || cos <= 0.0 {
+        return f64::INFINITY;
+    }
+    let angle = c.f.cross(&d).norm().atan2(cos);
+    if angle.is_nan() {
+        f64::INFINITY
+    } else {
+        angle
+    }
+}
+
+/// Why there is no robust UPnP estimate.
+pub type UpnpEstimateError = RobustError<UpnpError>;
+
+/// The UPnP solver as a RANSAC estimator over correspondences.
+#[derive(Debug, Clone)]
+pub struct UpnpEstimator {
+    /// The solver of a sample (module docs: learned start only, no fallback).
+    pub solver: UpnpSolver,
+    /// Correspondences per sample (at least 3).
+    pub sample_size: usize,
+    /// Settings of the local optimization on the inliers.
+    pub refine: LmOptions,
+}
+
+impl UpnpEstimator {
+    /// An estimator whose samples are solved by `solver`'s network with the sample options of
+    /// the module docs; samples of 4 correspondences. `max_angle` is how far a sample's pose may
+    /// miss its own correspondences (radians), as [`UpnpSolverOptions::max_angle`].
+    pub fn new(solver: UpnpSolver, max_angle: f64) -> Self {
+        let options = UpnpSolverOptions { max_angle, ..UpnpSolverOptions::single_path(StartKind::Regressor) };
+        Self { solver: solver.with_options(options), sample_size: 4, refine: LmOptions { max_iterations: 20, ..LmOptions::default() } }
+    }
+
+    /// A robust estimate from `corrs` (any number, at least a sample): LO-RANSAC with
+    /// `options` ([`RansacOptions::poselib`] for PoseLib's defaults), `options.threshold` an
+    /// angle in radians ([`angular_error`]).
+    pub fn estimate(&self, corrs: &[UpnpCorrespondence], options: &RansacOptions) -> Result<(UpnpPose, EstimateInfo), UpnpEstimateError> {
+        validate(corrs)?;
+        if corrs.len() < self.sample_size {
+            return Err(UpnpError::TooFewCorrespondences { got: corrs.len(), need: self.sample_size }.into());
+        }
+        let result = ransac(self, corrs, options).ok_or(RobustError::NoModel { iterations: options.max_iterations })?;
+        Ok(EstimateInfo::split(result))
+    }
+}
+
+impl Estimator for UpnpEstimator {
+    type Datum = UpnpCorrespondence;
+    type Model = UpnpPose;
+
+    fn sample_size(&self) -> usize {
+        self.sample_size
+    }
+
+    fn solve(&self, data: &[UpnpCorrespondence], indices: &[usize], out: &mut Vec<UpnpPose>) {
+        let sample: Vec<UpnpCorrespondence> = indices.iter().map(|&i| data[i]).collect();
+        // A sample that does not validate holds an outlier or missed its basin: dropped.
+        if let Ok(pose) = self.solver.solve(&sample) {
+            out.push(pose);
+        }
+    }
+
+    fn residual(&self, model: &UpnpPose, datum: &UpnpCorrespondence) -> f64 {
+        angular_error(model, datum)
+    }
+
+    fn refine(&self, model: &UpnpPose, data: &[UpnpCorrespondence], inliers: &[usize]) -> Option<UpnpPose> {
+        let subset: Vec<UpnpCorrespondence> = inliers.iter().map(|&i| data[i]).collect();
+        let r = levenberg_marquardt(&model.rotation, &model.translation, &subset, &self.refine);
+        let finite = r.cost.is_finite() && r.rotation.iter().chain(r.translation.iter()).all(|v| v.is_finite());
+        finite.then(|| UpnpPose { rotation: r.rotation, translation: r.translation, quaternion: quat_from_rotation(&r.rotation) })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::rotation_error_deg;
+    use crate::upnp::scene::{UpnpScene, UpnpSceneConfig};
+    use nalgebra::Vector3;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A sampled scene of `n` correspondences, a fraction `wrong` of them given a random world
+    /// point (wrong matches), with their true-inlier flags.
+    fn scene_with_outliers(seed: u64, n: usize, wrong: f64) -> (UpnpScene, Vec<bool>) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let config = UpnpSceneConfig { points: n, noise_px: 0.0, ..UpnpSceneConfig::default() };
+        let mut scene = config.sample(&mut rng).unwrap();
+        let mut inlier = vec![true; n];
+        for (c, keep) in scene.correspondences.iter_mut().zip(inlier.iter_mut()) {
+            if rng.random::<f64>() < wrong {
+                let shift = Vector3::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0));
+                c.p += shift;
+                *keep = false;
+            }
+        }
+        (scene, inlier)
+    }
+
+    #[test]
+    fn the_estimate_keeps_the_inliers_at_40_percent_outliers() {
+        let (scene, inlier) = scene_with_outliers(7, 100, 0.4);
+        let estimator = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6);
+        let options = RansacOptions { max_iterations: 300, ..RansacOptions::poselib(1e-4) };
+        let (pose, info) = estimator.estimate(&scene.correspondences, &options).unwrap();
+        let er = rotation_error_deg(&pose.rotation, &scene.rotation);
+        assert!(er < 1e-4, "rotation error {er} deg");
+        let kept = info.inlier_mask.iter().zip(&inlier).filter(|(m, t)| **m && **t).count();
+        let wrong = info.inlier_mask.iter().zip(&inlier).filter(|(m, t)| **m && !**t).count();
+        let truth = inlier.iter().filter(|t| **t).count();
+        assert_eq!(kept, truth, "true matches kept");
+        assert_eq!(wrong, 0, "wrong matches taken");
+        assert_eq!(info.inliers.len(), truth);
+    }
+
+    #[test]
+    fn bad_input_names_the_correspondence() {
+        let (mut scene, _) = scene_with_outliers(8, 20, 0.0);
+        let estimator = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6);
+        let options = RansacOptions::poselib(1e-4);
+        scene.correspondences[13].f.y = f64::NAN;
+        assert_eq!(estimator.estimate(&scene.correspondences, &options).unwrap_err(), UpnpError::NonFinite { index: 13 }.into());
+        let err = estimator.estimate(&scene.correspondences[..3], &options).unwrap_err();
+        assert_eq!(err, UpnpError::TooFewCorrespondences { got: 3, need: 4 }.into());
+    }
+}

@@ -6,6 +6,9 @@ on all correspondences, and a solve without a validated answer raises a ``SolveE
 
 - ``upnp(points, bearings, origins=None)``: generalized absolute pose (UPnP), N >= 3.
 - ``grps(f, v, fp, vp)``: generalized relative pose and scale, N >= 8.
+- ``estimate_upnp(points, bearings, origins=None, threshold=...)``: UPnP, robust (LO-RANSAC),
+  N >= 4.
+- ``estimate_grps(f, v, fp, vp, threshold=...)``: GRPS, robust (LO-RANSAC), N >= 7.
 - ``gen_relpose(f, v, fp, vp)``: generalized relative pose with known scale, exactly 7.
 - ``estimate_gen_relpose(f, v, fp, vp, threshold=...)``: the same, robust (LO-RANSAC), N >= 7.
 - ``grp``: that problem's module as ``simhc_python::python_module!`` makes it for any declared
@@ -23,6 +26,8 @@ from ._simhc import (
     ProblemSolver,
     SolveError,
     estimate_gen_relpose,
+    estimate_grps,
+    estimate_upnp,
     gen_relpose,
     grp,
     grps,
@@ -37,6 +42,8 @@ __all__ = [
     "ProblemSolver",
     "SolveError",
     "estimate_gen_relpose",
+    "estimate_grps",
+    "estimate_upnp",
     "gen_relpose",
     "grp",
     "grps",

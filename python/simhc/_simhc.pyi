@@ -93,4 +93,40 @@ def estimate_gen_relpose(
     """Robust generalized relative pose from (N, 3) arrays with outliers, N >= 7.
     ``info``: iterations, num_inliers, inlier_ratio, inlier_mask, score, refinements, models."""
 
+def estimate_upnp(
+    points: ArrayLike,
+    bearings: ArrayLike,
+    origins: Optional[ArrayLike] = None,
+    *,
+    threshold: float = 0.00375,
+    noise: float = 1.0,
+    max_iterations: int = 100000,
+    min_iterations: int = 1000,
+    confidence: float = 0.9999,
+    seed: int = 0,
+    local_optimization: bool = True,
+    refine_rounds: int = 2,
+) -> tuple[Pose, Info]:
+    """Robust generalized absolute pose from (N, 3) arrays with outliers, N >= 4.
+    ``threshold``: largest angle (radians) between a bearing and its point for an inlier.
+    ``info``: iterations, num_inliers, inlier_ratio, inlier_mask, score, refinements, models."""
+
+def estimate_grps(
+    f: ArrayLike,
+    v: ArrayLike,
+    fp: ArrayLike,
+    vp: ArrayLike,
+    *,
+    threshold: float = 0.01,
+    max_iterations: int = 100000,
+    min_iterations: int = 1000,
+    confidence: float = 0.9999,
+    seed: int = 0,
+    local_optimization: bool = True,
+    refine_rounds: int = 2,
+) -> tuple[Pose, Info]:
+    """Robust generalized relative pose and scale from (N, 3) arrays with outliers, N >= 7.
+    ``threshold``: largest reprojection error (sine of an angle, both views) for an inlier.
+    ``info``: iterations, num_inliers, inlier_ratio, inlier_mask, score, refinements, models."""
+
 grp: ModuleType

@@ -1,14 +1,24 @@
-//! The built-in problems, UPnP and GRPS, through their own solvers (built once per process).
+//! The built-in problems, UPnP and GRPS, through their own solvers and robust estimators
+//! (built once per process).
 
 use crate::arrays::{same_count, vectors};
 use crate::errors::Failure;
 use crate::pose::Pose;
+use crate::problem::{info_dict, ransac_options};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use simhc_problems::grps::ransac::GrpsEstimator;
 use simhc_problems::grps::scene::GrpsCorrespondence;
-use simhc_problems::grps::solver::{GrpsSolveError, GrpsSolver};
+use simhc_problems::grps::solver::{GrpsSolveError, GrpsSolver, GrpsSolverOptions};
+use simhc_problems::robust::RobustError;
+use simhc_problems::upnp::ransac::UpnpEstimator;
 use simhc_problems::upnp::scene::UpnpCorrespondence;
 use simhc_problems::upnp::solver::{SolveError as UpnpSolveError, UpnpSolver};
+use std::fmt::Display;
 use std::sync::OnceLock;
+
+/// The focal length (pixels) the estimators' pixel defaults refer to.
+const FOCAL_PX: f64 = 800.0;
 
 fn upnp_solver() -> Result<&'static UpnpSolver, Failure> {
     static SOLVER: OnceLock<Result<UpnpSolver, String>> = OnceLock::new();
@@ -24,6 +34,51 @@ fn grps_solver() -> Result<&'static GrpsSolver, Failure> {
         .get_or_init(|| GrpsSolver::new().map_err(|e| e.to_string()))
         .as_ref()
         .map_err(|e| Failure::NoSolution(format!("the shipped GRPS weights: {e}")))
+}
+
+/// A built-in estimator's error as an exception: bad input, or no model.
+fn robust_failure<E: Display>(e: RobustError<E>) -> Failure {
+    match e {
+        RobustError::Input(_) => Failure::Input(e.to_string()),
+        RobustError::NoModel { .. } => Failure::NoSolution(e.to_string()),
+    }
+}
+
+/// The correspondences of `upnp`'s arrays (`origins=None`: a central camera at the origin).
+fn upnp_correspondences(
+    points: &Bound<'_, PyAny>,
+    bearings: &Bound<'_, PyAny>,
+    origins: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Vec<UpnpCorrespondence>> {
+    let p = vectors(points, "points")?;
+    let f = vectors(bearings, "bearings")?;
+    let v = match origins {
+        Some(o) => vectors(o, "origins")?,
+        None => vec![nalgebra::Vector3::zeros(); f.len()],
+    };
+    same_count(&[("points", p.len()), ("bearings", f.len()), ("origins", v.len())])?;
+    Ok((0..p.len()).map(|i| UpnpCorrespondence { p: p[i], f: f[i], v: v[i] }).collect())
+}
+
+/// The correspondences of `grps`'s arrays.
+fn grps_correspondences(
+    f: &Bound<'_, PyAny>,
+    v: &Bound<'_, PyAny>,
+    fp: &Bound<'_, PyAny>,
+    vp: &Bound<'_, PyAny>,
+) -> PyResult<Vec<GrpsCorrespondence>> {
+    let (f, v, fp, vp) = (vectors(f, "f")?, vectors(v, "v")?, vectors(fp, "fp")?, vectors(vp, "vp")?);
+    let n = same_count(&[("f", f.len()), ("v", v.len()), ("fp", fp.len()), ("vp", vp.len())])?;
+    Ok((0..n).map(|i| GrpsCorrespondence { f: f[i], v: v[i], fp: fp[i], vp: vp[i] }).collect())
+}
+
+/// `noise` (pixels at [`FOCAL_PX`]) as an angle; an error unless finite and non-negative.
+fn noise_angle(noise: f64) -> Result<f64, Failure> {
+    if noise.is_finite() && noise >= 0.0 {
+        Ok(noise / FOCAL_PX)
+    } else {
+        Err(Failure::Input(format!("`noise`: {noise}, expected a number >= 0")))
+    }
 }
 
 fn upnp_failure(e: UpnpSolveError) -> Failure {
@@ -55,14 +110,7 @@ fn grps_failure(e: GrpsSolveError) -> Failure {
 #[pyfunction]
 #[pyo3(signature = (points, bearings, origins = None))]
 pub fn upnp(py: Python<'_>, points: &Bound<'_, PyAny>, bearings: &Bound<'_, PyAny>, origins: Option<&Bound<'_, PyAny>>) -> PyResult<Pose> {
-    let p = vectors(points, "points")?;
-    let f = vectors(bearings, "bearings")?;
-    let v = match origins {
-        Some(o) => vectors(o, "origins")?,
-        None => vec![nalgebra::Vector3::zeros(); f.len()],
-    };
-    same_count(&[("points", p.len()), ("bearings", f.len()), ("origins", v.len())])?;
-    let corrs: Vec<UpnpCorrespondence> = (0..p.len()).map(|i| UpnpCorrespondence { p: p[i], f: f[i], v: v[i] }).collect();
+    let corrs = upnp_correspondences(points, bearings, origins)?;
     let solver = upnp_solver()?;
     let pose = py.detach(|| solver.solve(&corrs)).map_err(upnp_failure)?;
     Pose::new(py, &pose.rotation, &pose.translation, None)
@@ -79,10 +127,77 @@ pub fn upnp(py: Python<'_>, points: &Bound<'_, PyAny>, bearings: &Bound<'_, PyAn
 /// `NotValidatedError` or `NoSolutionError` when no pose validates.
 #[pyfunction]
 pub fn grps(py: Python<'_>, f: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>, fp: &Bound<'_, PyAny>, vp: &Bound<'_, PyAny>) -> PyResult<Pose> {
-    let (f, v, fp, vp) = (vectors(f, "f")?, vectors(v, "v")?, vectors(fp, "fp")?, vectors(vp, "vp")?);
-    let n = same_count(&[("f", f.len()), ("v", v.len()), ("fp", fp.len()), ("vp", vp.len())])?;
-    let corrs: Vec<GrpsCorrespondence> = (0..n).map(|i| GrpsCorrespondence { f: f[i], v: v[i], fp: fp[i], vp: vp[i] }).collect();
+    let corrs = grps_correspondences(f, v, fp, vp)?;
     let solver = grps_solver()?;
     let pose = py.detach(|| solver.solve(&corrs)).map_err(grps_failure)?;
     Pose::new(py, &pose.rotation, &pose.translation, Some(pose.scale))
+}
+
+/// Robust generalized absolute pose (LO-RANSAC over samples of 4 correspondences solved by
+/// UPnP's learned start and one path, PoseLib's defaults) from N >= 4 correspondences with
+/// outliers, as `upnp`'s (N, 3) arrays. `threshold` is the largest angle (radians) between a
+/// bearing and the direction to its point for an inlier, default three pixels at a focal
+/// length of 800 px; `noise` (pixels at that focal length, default 1) sets how far a sample's
+/// pose may miss its own correspondences (8 times the noise).
+///
+/// Returns `(pose, info)`: `info` holds `iterations`, `num_inliers`, `inlier_ratio`,
+/// `inlier_mask` (bool array of N), `score`, `refinements` and `models`. Raises `InputError`
+/// (naming the correspondence and field) or `NoSolutionError` when no sample validated.
+#[pyfunction]
+#[pyo3(signature = (points, bearings, origins = None, *, threshold = 3.0 / FOCAL_PX, noise = 1.0, max_iterations = 100_000, min_iterations = 1000, confidence = 0.9999, seed = 0, local_optimization = true, refine_rounds = 2))]
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_upnp<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    bearings: &Bound<'py, PyAny>,
+    origins: Option<&Bound<'py, PyAny>>,
+    threshold: f64,
+    noise: f64,
+    max_iterations: usize,
+    min_iterations: usize,
+    confidence: f64,
+    seed: u64,
+    local_optimization: bool,
+    refine_rounds: usize,
+) -> PyResult<(Pose, Bound<'py, PyDict>)> {
+    let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
+    let max_angle = (8.0 * noise_angle(noise)?).max(1e-6);
+    let corrs = upnp_correspondences(points, bearings, origins)?;
+    let estimator = UpnpEstimator::new(upnp_solver()?.clone(), max_angle);
+    let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
+    Ok((Pose::new(py, &pose.rotation, &pose.translation, None)?, info_dict(py, &info)?))
+}
+
+/// Robust generalized relative pose and scale (LO-RANSAC over samples of 7 correspondences,
+/// up to 4 roots per sample scored by consensus, PoseLib's defaults) from N >= 7
+/// correspondences with outliers, as `grps`'s (N, 3) arrays. `threshold` is the largest
+/// reprojection error (sine of the angle between a bearing and its triangulated point, in both
+/// views) for an inlier, default the paper's 0.01 (8 px at 800 px).
+///
+/// Returns `(pose, info)` with `pose.s` the scale: `info` holds `iterations`, `num_inliers`,
+/// `inlier_ratio`, `inlier_mask` (bool array of N), `score`, `refinements` and `models`.
+/// Raises `InputError` (naming the correspondence and field) or `NoSolutionError`.
+#[pyfunction]
+#[pyo3(signature = (f, v, fp, vp, *, threshold = 0.01, max_iterations = 100_000, min_iterations = 1000, confidence = 0.9999, seed = 0, local_optimization = true, refine_rounds = 2))]
+#[allow(clippy::too_many_arguments)]
+pub fn estimate_grps<'py>(
+    py: Python<'py>,
+    f: &Bound<'py, PyAny>,
+    v: &Bound<'py, PyAny>,
+    fp: &Bound<'py, PyAny>,
+    vp: &Bound<'py, PyAny>,
+    threshold: f64,
+    max_iterations: usize,
+    min_iterations: usize,
+    confidence: f64,
+    seed: u64,
+    local_optimization: bool,
+    refine_rounds: usize,
+) -> PyResult<(Pose, Bound<'py, PyDict>)> {
+    let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
+    let corrs = grps_correspondences(f, v, fp, vp)?;
+    let solver = grps_solver()?.clone().with_options(GrpsSolverOptions::for_ransac());
+    let estimator = GrpsEstimator::new(solver, 7);
+    let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
+    Ok((Pose::new(py, &pose.rotation, &pose.translation, Some(pose.scale))?, info_dict(py, &info)?))
 }

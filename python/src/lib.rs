@@ -2,7 +2,8 @@
 //! library a user's crate calls to make a Python module of its own declared problem
 //! ([`python_module!`]).
 //!
-//! - [`builtin`]: `simhc.upnp`, `simhc.grps` (the built-ins' solvers);
+//! - [`builtin`]: `simhc.upnp`, `simhc.grps`, `simhc.estimate_upnp`, `simhc.estimate_grps`
+//!   (the built-ins' solvers and robust estimators);
 //! - [`relpose`]: `simhc.gen_relpose`, `simhc.estimate_gen_relpose` (the example problem) and
 //!   `simhc.grp`, the same problem's module made by [`python_module!`];
 //! - [`problem`]: any declared problem as a [`problem::ProblemSolver`];
@@ -33,6 +34,8 @@ fn _simhc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ProblemSolver>()?;
     m.add_function(wrap_pyfunction!(builtin::upnp, m)?)?;
     m.add_function(wrap_pyfunction!(builtin::grps, m)?)?;
+    m.add_function(wrap_pyfunction!(builtin::estimate_upnp, m)?)?;
+    m.add_function(wrap_pyfunction!(builtin::estimate_grps, m)?)?;
     m.add_function(wrap_pyfunction!(relpose::gen_relpose, m)?)?;
     m.add_function(wrap_pyfunction!(relpose::estimate_gen_relpose, m)?)?;
     m.add_wrapped(pyo3::wrap_pymodule!(relpose::grp))?;

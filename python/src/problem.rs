@@ -187,16 +187,22 @@ impl ProblemSolver {
     ) -> PyResult<(Vec<f64>, Bound<'py, PyDict>)> {
         let solver = self.solver(noise)?;
         let (x, info) = py.detach(|| solver.estimate(&rows, &globals, options))?;
-        let d = PyDict::new(py);
-        d.set_item("iterations", info.iterations)?;
-        d.set_item("num_inliers", info.inliers.len())?;
-        d.set_item("inlier_ratio", info.inlier_ratio)?;
-        d.set_item("inlier_mask", PyArray1::from_slice(py, &info.inlier_mask))?;
-        d.set_item("score", info.score)?;
-        d.set_item("refinements", info.refinements)?;
-        d.set_item("models", info.hypotheses)?;
-        Ok((x, d))
+        Ok((x, info_dict(py, &info)?))
     }
+}
+
+/// A robust estimate's info as PoseLib's `info` dict: `iterations`, `num_inliers`,
+/// `inlier_ratio`, `inlier_mask` (a bool array), `score`, `refinements`, `models`.
+pub fn info_dict<'py>(py: Python<'py>, info: &EstimateInfo) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("iterations", info.iterations)?;
+    d.set_item("num_inliers", info.inliers.len())?;
+    d.set_item("inlier_ratio", info.inlier_ratio)?;
+    d.set_item("inlier_mask", PyArray1::from_slice(py, &info.inlier_mask))?;
+    d.set_item("score", info.score)?;
+    d.set_item("refinements", info.refinements)?;
+    d.set_item("models", info.hypotheses)?;
+    Ok(d)
 }
 
 /// The estimator's options from keyword arguments (PoseLib's defaults).

@@ -132,6 +132,64 @@ def test_estimate_finds_the_inliers_among_outliers():
     assert np.linalg.norm(pose.t - t) < 0.05 * np.linalg.norm(t)
 
 
+def recall_and_wrong(info, truth):
+    mask = info["inlier_mask"]
+    assert mask.dtype == np.bool_ and mask.shape == truth.shape
+    assert info["num_inliers"] == mask.sum()
+    assert info["iterations"] >= 1000  # PoseLib's minimum
+    return (mask & truth).sum(), (mask & ~truth).sum()
+
+
+@pytest.mark.parametrize("seed", [21, 22])
+def test_estimate_upnp_finds_the_inliers_among_outliers(seed):
+    rng = np.random.default_rng(seed + 1000)
+    p, f, v, r, t = upnp_scene(seed, n=80)
+    outliers = rng.choice(80, 32, replace=False)  # 40 %
+    p[outliers] += rng.uniform(-3, 3, (32, 3))  # wrong matches: other world points
+    f = unit(f + rng.normal(scale=0.5 / 800, size=f.shape))  # about half a pixel
+    pose, info = simhc.estimate_upnp(p, f, v, seed=seed)
+    truth = np.ones(80, bool)
+    truth[outliers] = False
+    kept, wrong = recall_and_wrong(info, truth)
+    assert kept >= 47, f"seed {seed}: recall {kept} of 48"
+    assert wrong <= 1, f"seed {seed}: {wrong} outliers taken as inliers"
+    assert rotation_error_deg(pose.R, r) < 2.0, f"seed {seed}"
+    assert np.linalg.norm(pose.t - t) < 0.05 * np.linalg.norm(t), f"seed {seed}"
+
+
+def test_estimate_grps_finds_the_inliers_among_outliers():
+    seed = 23
+    rng = np.random.default_rng(seed + 1000)
+    f, v, fp, vp, r, t = relative_scene(seed, 60, scale=1.7)
+    outliers = rng.choice(60, 18, replace=False)  # 30 %
+    fp[outliers] = unit(rng.normal(size=(18, 3)))
+    pose, info = simhc.estimate_grps(f, v, fp, vp, seed=seed)
+    truth = np.ones(60, bool)
+    truth[outliers] = False
+    kept, wrong = recall_and_wrong(info, truth)
+    assert kept >= 41, f"seed {seed}: recall {kept} of 42"
+    assert wrong <= 1, f"seed {seed}: {wrong} outliers taken as inliers"
+    assert rotation_error_deg(pose.R, r) < 2.0
+    assert abs(pose.s - 1.7) < 0.05 * 1.7
+
+
+def test_the_estimators_name_a_bad_correspondence():
+    p, f, v, _, _ = upnp_scene(3, n=12)
+    f[7, 2] = np.nan
+    with pytest.raises(simhc.InputError, match=r"correspondence 7, field `bearings`"):
+        simhc.estimate_upnp(p, f, v)
+    f[7, 2] = 1.0
+    with pytest.raises(simhc.InputError, match="too few correspondences: got 3, need at least 4"):
+        simhc.estimate_upnp(p[:3], f[:3], v[:3])
+    with pytest.raises(simhc.InputError, match="noise"):
+        simhc.estimate_upnp(p, f, v, noise=-1.0)
+    f2, v2, fp2, vp2, _, _ = relative_scene(4, 9)
+    with pytest.raises(simhc.InputError, match="too few correspondences: got 6, need at least 7"):
+        simhc.estimate_grps(f2[:6], v2[:6], fp2[:6], vp2[:6])
+    with pytest.raises(simhc.InputError, match="confidence"):
+        simhc.estimate_grps(f2, v2, fp2, vp2, confidence=1.5)
+
+
 def test_bad_input_raises_input_error_that_says_where():
     p, f, v, _, _ = upnp_scene(3)
     p[4, 1] = np.nan
@@ -172,6 +230,8 @@ def test_empty_arrays_raise_and_do_not_crash():
         lambda: simhc.grps(empty, empty, empty, empty),
         lambda: simhc.gen_relpose(empty, empty, empty, empty),
         lambda: simhc.estimate_gen_relpose(empty, empty, empty, empty),
+        lambda: simhc.estimate_upnp(empty, empty, empty),
+        lambda: simhc.estimate_grps(empty, empty, empty, empty),
         lambda: simhc.upnp([], [], []),
     ):
         with pytest.raises(simhc.InputError):
@@ -196,3 +256,6 @@ def test_help_says_what_the_arrays_are():
     assert "(N, 3)" in simhc.upnp.__doc__ and "origins" in simhc.upnp.__doc__
     assert "inlier_mask" in simhc.estimate_gen_relpose.__doc__
     assert "threshold" in simhc.estimate_gen_relpose.__text_signature__
+    for estimate in (simhc.estimate_upnp, simhc.estimate_grps):
+        assert "inlier_mask" in estimate.__doc__ and "(N, 3)" in estimate.__doc__
+        assert "threshold" in estimate.__text_signature__

@@ -1,70 +1,16 @@
 //! Proof of the zero-allocation claim: a counting global allocator, armed only on this test's
 //! thread while `track` / `newton` run, for square, overdetermined, squared-up, complex and
 //! failing paths, and while a learned start predicts.
-#![allow(unsafe_code)]
 
+mod counting_alloc;
 mod tracker_support;
 
+use counting_alloc::counted;
 use nalgebra::{SVector, Vector1, Vector2};
 use num_complex::Complex;
 use simhc::homotopy::{random_gamma, to_complex, FixedSystem, ParameterHomotopy, SquaredUp, StraightLine};
 use simhc::tracker::{newton, track, NewtonOptions, TrackError, Tracker, TrackerOptions};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use tracker_support::*;
-
-/// Counts allocations made on threads that armed it; forwards everything to `System`.
-struct Counting;
-
-thread_local! {
-    // `const` initialisation: no lazy registration, so reading them never allocates. Both are
-    // per thread: the tests of this file run in parallel, and one's armed allocations must not
-    // count in another's.
-    static ARMED: Cell<bool> = const { Cell::new(false) };
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-fn note_allocation() {
-    if ARMED.try_with(Cell::get).unwrap_or(false) {
-        let _ = ALLOCATIONS.try_with(|n| n.set(n.get() + 1));
-    }
-}
-
-// SAFETY: every call is forwarded unchanged to the system allocator; the counter only reads a
-// thread-local flag and bumps an atomic.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        note_allocation();
-        // SAFETY: forwarded with the caller's layout.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        note_allocation();
-        // SAFETY: forwarded with the caller's layout.
-        unsafe { System.alloc_zeroed(layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        note_allocation();
-        // SAFETY: `ptr` and `layout` come from this allocator, i.e. from `System`.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: `ptr` and `layout` come from this allocator, i.e. from `System`.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
-
-/// Runs `f` with the counter armed on this thread; returns its result and the allocations.
-fn counted<R>(f: impl FnOnce() -> R) -> (R, usize) {
-    let before = ALLOCATIONS.with(Cell::get);
-    ARMED.with(|a| a.set(true));
-    let r = f();
-    ARMED.with(|a| a.set(false));
-    (r, ALLOCATIONS.with(Cell::get) - before)
-}
 
 #[test]
 fn tracking_does_not_allocate() {

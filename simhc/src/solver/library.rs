@@ -253,7 +253,7 @@ where
         if let Some(index) = p.iter().position(|v| !v.is_finite()) {
             return Err(PipelineError::Input(NonFiniteParameter::locate(&S::Data::LAYOUT, index).into()));
         }
-        let target = FirstRows::<S::Tracked>::new(S::Data::LAYOUT);
+        let target = FirstRows::<S::Tracked>::new();
         let simulator = Generic(S::Tracked::default());
         let set = RankedStarts::new(&self.learned, &*self.problem);
         let ranked: [RankedStart<'_, '_, S, _, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =

@@ -24,31 +24,37 @@ where
     type Frame = CanonicalFrame<NX>;
     type Canonical = SVector<f64, ND>;
     fn canonicalize(&self, data: &SVector<f64, ND>) -> Option<(CanonicalFrame<NX>, SVector<f64, ND>)> {
-        self.0.canonicalize(data).map(|(p, frame)| (frame, p))
+        // A frame that turns finite data into NaN or infinity (degenerate data) is not used:
+        // the data is solved as given, and the validator decides.
+        self.0.canonicalize(data).filter(|(p, _)| p.iter().all(|v| v.is_finite())).map(|(p, frame)| (frame, p))
     }
     fn to_user(&self, frame: &CanonicalFrame<NX>, x: &SVector<f64, NX>) -> SVector<f64, NX> {
         (frame.to_user)(x)
     }
 }
 
-/// The tracked parameters of the data: its first `Q::LAYOUT.rows` rows and its globals, after a
-/// check that every value is finite (an error names the row and field of `data_layout`).
-pub struct FirstRows<Q> {
-    data_layout: Layout,
-    problem: PhantomData<fn() -> Q>,
-}
+/// The tracked parameters of the data: its first `Q::LAYOUT.rows` rows and its globals. The
+/// data is checked before ([`super::Solver::run_pipeline`] names the row and field of a NaN in
+/// the user's data, before a canonical frame mixes the rows).
+pub struct FirstRows<Q>(PhantomData<fn() -> Q>);
 
 impl<Q: ProblemLayout> FirstRows<Q> {
-    /// The first rows of data laid out as `data_layout`.
-    pub fn new(data_layout: Layout) -> Self {
-        Self { data_layout, problem: PhantomData }
+    /// The first rows of the data.
+    pub fn new() -> Self {
+        Self(PhantomData)
+    }
+}
+
+impl<Q: ProblemLayout> Default for FirstRows<Q> {
+    fn default() -> Self {
+        Self::new()
     }
 }
 
 /// Why [`FirstRows`] cannot make the tracked parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum FirstRowsError {
-    /// A parameter of the data is NaN or infinite.
+    /// A parameter of the user's data is NaN or infinite.
     #[error(transparent)]
     NonFinite(#[from] NonFiniteParameter),
     /// The tracked instance is not a first-rows part of the data.
@@ -64,9 +70,6 @@ pub enum FirstRowsError {
 impl<Q: ProblemLayout, const NP: usize, const ND: usize> TargetParameters<SVector<f64, ND>, NP> for FirstRows<Q> {
     type Error = FirstRowsError;
     fn params(&self, data: &SVector<f64, ND>) -> Result<SVector<f64, NP>, FirstRowsError> {
-        if let Some(index) = data.iter().position(|v| !v.is_finite()) {
-            return Err(NonFiniteParameter::locate(&self.data_layout, index).into());
-        }
         Q::LAYOUT.first_rows(data.as_slice()).ok_or(FirstRowsError::Sizes { tracked: NP, data: ND })
     }
 }

@@ -11,7 +11,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Validator, Verdict};
 use simhc::ransac::RansacOptions;
-use simhc::solver::{DeclaredProblem, EstimateError, SolveError, Solver};
+use simhc::solver::{CanonicalFrame, DeclaredProblem, EstimateError, SolveError, Solver};
 use simhc_cli::{App, Declared};
 
 #[simhc::simhc_problem]
@@ -92,6 +92,11 @@ fn solver() -> Solver<Line, 2, 4, 8, { Line4::NC }, 8> {
 
 /// The same for data with noise of `noise` (the validator's tolerance).
 fn noisy_solver(noise: f64) -> Solver<Line, 2, 4, 8, { Line4::NC }, 8> {
+    Solver::with_weights(Line, &line_weights(), noise).expect("the weights load")
+}
+
+/// Weights for the line, trained here (a small network; the solve validates whatever it gets).
+fn line_weights() -> Vec<u8> {
     let dir = std::env::temp_dir().join(format!("simhc-library-solver-{}-{:?}", std::process::id(), std::thread::current().id()));
     std::fs::create_dir_all(&dir).unwrap();
     let weights = dir.join("line.folded");
@@ -100,7 +105,34 @@ fn noisy_solver(noise: f64) -> Solver<Line, 2, 4, 8, { Line4::NC }, 8> {
         .expect("trains");
     let bytes = std::fs::read(&weights).unwrap();
     std::fs::remove_dir_all(&dir).ok();
-    Solver::with_weights(Line, &bytes, noise).expect("the weights load")
+    bytes
+}
+
+/// The line with a canonical frame that turns every number into NaN (a degenerate frame).
+struct NanFrame;
+
+impl DeclaredProblem<2, 4, 8, { Line4::NC }, 8> for NanFrame {
+    type Tracked = Line4;
+    type Data = Line4;
+    type Validator = Residual;
+    const NAME: &'static str = "nan-frame";
+    const ABOUT: &'static str = "a line whose canonical frame is degenerate";
+    const ERRORS: &'static [&'static str] = &["error"];
+    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (P, X) {
+        Line.scene(rng, noise)
+    }
+    fn validator(&self, noise: f64) -> Residual {
+        Line.validator(noise)
+    }
+    fn errors(&self, x: &X, truth: &X) -> Vec<f64> {
+        Line.errors(x, truth)
+    }
+    fn correct(&self, errors: &[f64]) -> bool {
+        Line.correct(errors)
+    }
+    fn canonicalize(&self, _: &P) -> Option<(P, CanonicalFrame<2>)> {
+        Some((P::from_element(f64::NAN), CanonicalFrame { to_canonical: Box::new(|x| *x), to_user: Box::new(|x| *x) }))
+    }
 }
 
 #[test]
@@ -198,4 +230,15 @@ fn the_robust_estimator_names_bad_input() {
     rows[2 * 7 + 1] = f64::NAN;
     let err = solver.estimate(&rows, &[], &options).unwrap_err();
     assert!(err.to_string().contains("row 7") && err.to_string().contains("`y`"), "{err}");
+}
+
+#[test]
+fn a_canonical_frame_that_makes_nan_of_finite_data_is_not_used() {
+    let solver = Solver::with_weights(NanFrame, &line_weights(), 0.0).expect("the weights load");
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    for _ in 0..20 {
+        let (p, truth) = NanFrame.scene(&mut rng, 0.0);
+        let s = solver.solve(&p).expect("solved in the user's frame");
+        assert!((s.x - truth).amax() < 1e-9);
+    }
 }

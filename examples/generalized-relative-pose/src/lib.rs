@@ -123,16 +123,32 @@ fn unknowns(q: &UnitQuaternion<f64>, t: &Vector3<f64>) -> Unknowns {
 ///    `[-1, 1]^3` of its frame; each correspondence seen by a random camera of each rig; noise
 ///    of `noise_px` pixels (focal [`FOCAL_PX`]) on every bearing.
 pub fn scene(rng: &mut ChaCha8Rng, noise_px: f64) -> (Params, Unknowns) {
+    let mut p = Params::zeros();
+    let x = sample_rows(rng, 7, noise_px, |i, fields| set_row(&mut p, i, fields));
+    (p, x)
+}
+
+/// The sampler of [`scene`] with `n` correspondences (at least 2), as rows of 12 numbers
+/// `[f, v, fp, vp]`: the robust estimator's scenes (`grp ransac grp`). With `n = 7` it draws
+/// what [`scene`] draws.
+pub fn scene_rows(rng: &mut ChaCha8Rng, n: usize, noise_px: f64) -> (Vec<f64>, Unknowns) {
+    let mut rows = Vec::with_capacity(12 * n);
+    let x = sample_rows(rng, n, noise_px, |_, fields| rows.extend(fields.iter().flat_map(|v| v.iter().copied())));
+    (rows, x)
+}
+
+/// The generative model of [`scene`]: `n` correspondences handed to `row` in order, and the
+/// true unknowns.
+fn sample_rows(rng: &mut ChaCha8Rng, n: usize, noise_px: f64, mut row: impl FnMut(usize, [Vector3<f64>; 4])) -> Unknowns {
     let q = random_rotation(rng);
     let r = q.to_rotation_matrix().into_inner();
     let t = Vector3::from_fn(|_, _| rng.random_range(-2.0..2.0));
-    let mut p = Params::zeros();
     let sigma = noise_px / FOCAL_PX;
     let cameras = |rng: &mut ChaCha8Rng| -> Vec<Vector3<f64>> {
         (0..rng.random_range(2..=7)).map(|_| Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0))).collect()
     };
     let (rig1, rig2) = (cameras(rng), cameras(rng));
-    for i in 0..7 {
+    for i in 0..n {
         let x = Vector3::new(rng.random_range(-2.0..2.0), rng.random_range(-2.0..2.0), rng.random_range(2.0..20.0));
         // Correspondences 0 and 1 see different cameras: a rig seen through one camera only is
         // central, and two central views leave the scale of t unobservable.
@@ -141,9 +157,9 @@ pub fn scene(rng: &mut ChaCha8Rng, noise_px: f64) -> (Params, Unknowns) {
         let vp = camera(&rig2, rng);
         let f = perturb((x - v).normalize(), sigma, rng);
         let fp = perturb((r.transpose() * (x - t) - vp).normalize(), sigma, rng);
-        set_row(&mut p, i, [f, v, fp, vp]);
+        row(i, [f, v, fp, vp]);
     }
-    (p, unknowns(&q, &t))
+    unknowns(&q, &t)
 }
 
 /// The same scene in random frames: rig 1 moved by `(R1, t1)`, rig 2 by `(R2, t2)` (any
@@ -340,6 +356,10 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
     }
     fn all_roots(&self) -> Option<&dyn AllRoots<7, 84>> {
         Some(&self.all_roots)
+    }
+    fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, Unknowns)> {
+        let (rows, x) = scene_rows(rng, rows.max(2), noise);
+        Some((rows, Vec::new(), x))
     }
     /// The robust estimator's error: the Sampson error of the coplanarity equation, as an
     /// angle (radians) when both bearings carry angular noise (`sampson_angle`).

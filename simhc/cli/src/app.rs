@@ -1,4 +1,4 @@
-//! The `simhc` command line of any set of problems: `<app> train|bench|solve|monodromy <problem>
+//! The `simhc` command line of any set of problems: `<app> train|bench|ransac|solve|monodromy <problem>
 //! [args]`. Each problem registers once ([`App::register`]) and brings the arguments and the
 //! code of the commands it has; the app dispatches by name, so no problem has a match arm here.
 //! The `simhc` binary registers the built-ins this way; a user's crate registers its own
@@ -19,11 +19,13 @@ pub enum Verb {
     Solve,
     /// Find all solutions of a generic instance by monodromy and write the start system.
     Monodromy,
+    /// The robust estimator on scenes with wrong matches: success, inlier recall and time.
+    Ransac,
 }
 
 impl Verb {
     /// Every verb, in help order.
-    pub const ALL: [Verb; 4] = [Verb::Bench, Verb::Train, Verb::Solve, Verb::Monodromy];
+    pub const ALL: [Verb; 5] = [Verb::Bench, Verb::Ransac, Verb::Train, Verb::Solve, Verb::Monodromy];
 
     /// The subcommand's name.
     pub fn name(self) -> &'static str {
@@ -32,6 +34,7 @@ impl Verb {
             Verb::Bench => "bench",
             Verb::Solve => "solve",
             Verb::Monodromy => "monodromy",
+            Verb::Ransac => "ransac",
         }
     }
 
@@ -41,6 +44,7 @@ impl Verb {
             Verb::Bench => "The paper's benchmark rows, measured in one run on the same trials",
             Verb::Solve => "Solve correspondences from a JSON file and print the solution as JSON",
             Verb::Monodromy => "Find all solutions of a generic instance by monodromy and write the start system",
+            Verb::Ransac => "The robust estimator on scenes with wrong matches: success, inlier recall and time per call",
         }
     }
 }

@@ -130,6 +130,9 @@ fn train_command(name: &'static str, about: &'static str) -> Option<Command> {
 #[cfg(not(feature = "train"))]
 pub(crate) const NO_TRAINER: &str = "this build has no trainer: enable simhc-cli's `train` feature";
 
+/// `ransac` on a built-in that has none (GRPS's is `bench grps --experiment ransac`).
+const NO_RANSAC: &str = "this problem has no `ransac` command";
+
 /// `simhc monodromy <problem>`.
 #[derive(Args, Debug, Clone)]
 pub struct MonodromyArgs {
@@ -225,6 +228,7 @@ impl Registration for Upnp {
 
     fn command(&self, verb: Verb) -> Option<Command> {
         Some(match verb {
+            Verb::Ransac => return None,
             Verb::Bench => command::<UpnpBench>("upnp", "Generalized absolute pose (UPnP): the paper's Table 1"),
             Verb::Train => return train_command("upnp", "Train the UPnP regressor (defaults: the shipped weights' settings)"),
             Verb::Solve => command::<SolveArgs>("upnp", "Solve UPnP correspondences {\"correspondences\": [{\"p\", \"f\", \"v\"}, ..]}"),
@@ -278,6 +282,7 @@ impl Registration for Upnp {
             Verb::Train => Err(NO_TRAINER.into()),
             Verb::Solve => solve(args, upnp::solve_file),
             Verb::Monodromy => MonodromyArgs::run(args, simhc_problems::start_systems::run_monodromy_upnp),
+            Verb::Ransac => Err(NO_RANSAC.into()),
         }
     }
 }
@@ -301,6 +306,8 @@ impl Registration for Grps {
                 command::<SolveArgs>("grps", "Solve GRPS correspondences {\"correspondences\": [{\"f\", \"v\", \"fp\", \"vp\"}, ..]}")
             }
             Verb::Monodromy => command::<MonodromyArgs>("grps", "GRPS with 7 correspondences (140 solutions modulo q -> -q)"),
+            // `bench grps --experiment ransac` is GRPS's.
+            Verb::Ransac => return None,
         })
     }
 
@@ -332,6 +339,7 @@ impl Registration for Grps {
             Verb::Train => Err(NO_TRAINER.into()),
             Verb::Solve => solve(args, grps::solve_file),
             Verb::Monodromy => MonodromyArgs::run(args, simhc_problems::start_systems::run_monodromy_grps7),
+            Verb::Ransac => Err(NO_RANSAC.into()),
         }
     }
 }

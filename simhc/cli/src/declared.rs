@@ -1,4 +1,4 @@
-//! The four commands for any `#[simhc_problem]`: a user implements
+//! The commands for any `#[simhc_problem]`: a user implements
 //! [`simhc::solver::DeclaredProblem`] (the compiled instance, a scene sampler, a validator, the
 //! errors a bench reports) and registers `Declared::new(problem)` in an [`crate::App`]:
 //!
@@ -7,12 +7,15 @@
 //! - `bench`: the paper's rows on the same seeded trials (Pred Initial, Pred + Gauss-Newton,
 //!   Rand + Sim HC, Pred + Sim HC, the full pipeline, All-roots), as a table or `--json`, on
 //!   the sampler's scenes, with noise, permuted rows, or in random frames;
+//! - `ransac`: the robust estimator on scenes with wrong matches at several outlier ratios
+//!   ([`crate::ransac`]), for a problem with a many-row sampler;
 //! - `solve`: a JSON file of correspondences (read through the layout) to a validated solution;
 //! - `monodromy`: all solutions of a generic instance of the problem's square subsystem
 //!   ([`SquareSubsystem`]), written as the start system of the fallback and the All-roots row.
 
 use crate::app::{progress_bar, Registration, Verb};
 use crate::builtin::MonodromyArgs;
+use crate::ransac::RansacArgs;
 use clap::{ArgMatches, Args, Command, FromArgMatches};
 use nalgebra::SVector;
 use rand::seq::SliceRandom;
@@ -265,6 +268,22 @@ where
         Ok((trials, format!("sampled, seed {}, noise {}, random frames {}, permuted {}", a.seed, a.noise, a.random_frames, a.permute)))
     }
 
+    fn ransac(&self, a: RansacArgs) -> Result<(), String> {
+        println!(
+            "{} ransac: {} scenes of {} rows per outlier ratio, seed {}, noise {}, threshold {}, PoseLib's iteration defaults, single thread",
+            S::NAME,
+            a.trials,
+            a.rows,
+            a.seed,
+            a.noise,
+            a.threshold
+        );
+        let solver = self.solver(&a.weights, a.noise)?;
+        let rows = crate::ransac::run(&*self.problem, &solver, S::Data::LAYOUT.rows, &a)?;
+        print!("{}", crate::ransac::table(&rows));
+        Ok(())
+    }
+
     fn bench(&self, a: BenchArgs) -> Result<(), String> {
         let (trials, source) = self.trials(&a)?;
         if let Some(path) = &a.dump_trials {
@@ -420,6 +439,12 @@ where
             #[cfg(not(feature = "train"))]
             Verb::Train => return None,
             Verb::Bench => BenchArgs::augment_args(c),
+            Verb::Ransac => {
+                // Only for a problem with a many-row sampler (one scene drawn to see).
+                let rows = S::Data::LAYOUT.rows;
+                self.problem.scene_rows(&mut ChaCha8Rng::seed_from_u64(0), rows, 0.0)?;
+                RansacArgs::augment_args(c)
+            }
             Verb::Solve => SolveArgs::augment_args(c),
             Verb::Monodromy => {
                 self.problem.all_roots()?;
@@ -453,6 +478,7 @@ where
             #[cfg(not(feature = "train"))]
             Verb::Train => Err(crate::builtin::NO_TRAINER.into()),
             Verb::Bench => self.bench(parse(args)?),
+            Verb::Ransac => self.ransac(parse(args)?),
             Verb::Solve => self.solve(parse(args)?),
             Verb::Monodromy => {
                 let roots =

@@ -1,5 +1,5 @@
-//! The `simhc` command line as a library: [`App`] builds `train`, `bench`, `solve` and
-//! `monodromy` for every registered problem. The `simhc` binary registers the built-ins
+//! The `simhc` command line as a library: [`App`] builds `train`, `bench`, `ransac`, `solve`
+//! and `monodromy` for every registered problem. The `simhc` binary registers the built-ins
 //! ([`Upnp`], [`Grps`], [`TrackerBench`]); a user's crate registers its own declared problem
 //! with [`Declared`]:
 //!
@@ -22,6 +22,7 @@ pub mod builtin;
 pub mod declared;
 mod grps;
 mod plots;
+pub mod ransac;
 mod stats;
 mod tracker_bench;
 mod upnp;

@@ -81,6 +81,15 @@ impl DeclaredProblem<2, 4, 8, { Line4::NC }, 8> for Line {
     fn correct(&self, errors: &[f64]) -> bool {
         errors[0] < 1e-6
     }
+    fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, X)> {
+        let (a, b) = (rng.random_range(-2.0..2.0), rng.random_range(-1.0..1.0));
+        let mut out = Vec::with_capacity(2 * rows);
+        for _ in 0..rows {
+            let x = rng.random_range(-2.0..2.0);
+            out.extend([x, a * x + b + noise * rng.random_range(-1.0..1.0)]);
+        }
+        Some((out, Vec::new(), X::new(a, b)))
+    }
 }
 
 fn assert_send_sync<T: Send + Sync>(_: &T) {}
@@ -241,4 +250,27 @@ fn a_canonical_frame_that_makes_nan_of_finite_data_is_not_used() {
         let s = solver.solve(&p).expect("solved in the user's frame");
         assert!((s.x - truth).amax() < 1e-9);
     }
+}
+
+#[test]
+fn the_ransac_command_measures_the_estimator_and_needs_a_many_row_sampler() {
+    use clap::{Args, FromArgMatches};
+    let solver = solver();
+    let command = simhc_cli::ransac::RansacArgs::augment_args(clap::Command::new("line"));
+    let matches = command
+        .try_get_matches_from(["line", "--trials", "4", "--rows", "40", "--noise", "0", "--threshold", "1e-6", "--outliers", "0,0.4"])
+        .expect("arguments parse");
+    let args = simhc_cli::ransac::RansacArgs::from_arg_matches(&matches).expect("arguments");
+    let rows = simhc_cli::ransac::run(&Line, &solver, 4, &args).expect("runs");
+    assert_eq!(rows.iter().map(|r| r.outliers).collect::<Vec<_>>(), vec![0.0, 0.4]);
+    for r in &rows {
+        assert_eq!(r.success_pct, 100.0, "{r:?}");
+        assert_eq!(r.recall_pct, 100.0, "{r:?}");
+        assert_eq!((r.wrong_taken, r.no_model), (0.0, 0), "{r:?}");
+    }
+    // The command exists for the line (it has `scene_rows`) and not for a problem without one.
+    let app = App::new("lines", "test").register(Declared::new(Line)).register(Declared::new(NanFrame));
+    let ransac = app.command().expect("builds").find_subcommand("ransac").cloned().expect("a ransac command");
+    assert!(ransac.find_subcommand("line").is_some());
+    assert!(ransac.find_subcommand("nan-frame").is_none());
 }

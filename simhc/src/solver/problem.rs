@@ -103,6 +103,14 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     ) -> Option<(SVector<f64, ND>, SVector<f64, NX>)> {
         None
     }
+    /// A scene of `rows` correspondences (at least the data's rows) with noise of size `noise`:
+    /// its rows in the data layout's order, row after row, its global numbers and its true
+    /// unknowns. The `ransac` command makes wrong matches of some rows (rows of another
+    /// scene) and runs [`super::Solver::estimate`] on them. `None` (the default): the problem
+    /// has no such sampler, and no `ransac` command.
+    fn scene_rows(&self, _rng: &mut ChaCha8Rng, _rows: usize, _noise: f64) -> Option<(Vec<f64>, Vec<f64>, SVector<f64, NX>)> {
+        None
+    }
     /// All roots of a square subsystem: the pipeline's fallback, the All-roots bench row and
     /// `monodromy` ([`super::SquareSubsystem`]).
     fn all_roots(&self) -> Option<&dyn AllRoots<NX, ND>> {

@@ -17,8 +17,8 @@ use super::geometry::{triangulate_depths, validate, GrpsError};
 use super::refine::{refine_pose, LmOptions};
 use super::scene::GrpsCorrespondence;
 use super::solver::{GrpsPose, GrpsSolveError, GrpsSolver};
-use crate::robust::RobustError;
-use simhc::ransac::{ransac, Estimator, RansacOptions};
+use crate::robust::{self, RobustError};
+use simhc::ransac::{Estimator, RansacOptions};
 use simhc::solver::EstimateInfo;
 
 /// Why there is no robust GRPS estimate.
@@ -88,12 +88,7 @@ impl GrpsEstimator {
     /// checks its input): LO-RANSAC with `options` ([`RansacOptions::poselib`] for PoseLib's
     /// defaults), `options.threshold` in the units of [`reprojection_error`].
     pub fn estimate(&self, corrs: &[GrpsCorrespondence], options: &RansacOptions) -> Result<(GrpsPose, EstimateInfo), GrpsEstimateError> {
-        validate(corrs)?;
-        if corrs.len() < self.sample_size {
-            return Err(GrpsError::TooFewCorrespondences { got: corrs.len(), need: self.sample_size }.into());
-        }
-        let result = ransac(self, corrs, options).ok_or(RobustError::NoModel { iterations: options.max_iterations })?;
-        Ok(EstimateInfo::split(result))
+        robust::estimate(self, corrs, options, validate, |got, need| GrpsError::TooFewCorrespondences { got, need })
     }
 }
 

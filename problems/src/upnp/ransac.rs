@@ -18,8 +18,8 @@ use super::refine::{levenberg_marquardt, LmOptions};
 use super::scene::UpnpCorrespondence;
 use super::solver::{StartKind, UpnpPose, UpnpSolver, UpnpSolverOptions};
 use crate::metrics::quat_from_rotation;
-use crate::robust::RobustError;
-use simhc::ransac::{ransac, Estimator, RansacOptions};
+use crate::robust::{self, RobustError};
+use simhc::ransac::{Estimator, RansacOptions};
 use simhc::solver::EstimateInfo;
 
 /// The angle (radians) between the bearing of `c` and the direction from its ray origin to its
@@ -66,12 +66,7 @@ impl UpnpEstimator {
     /// `options` ([`RansacOptions::poselib`] for PoseLib's defaults), `options.threshold` an
     /// angle in radians ([`angular_error`]).
     pub fn estimate(&self, corrs: &[UpnpCorrespondence], options: &RansacOptions) -> Result<(UpnpPose, EstimateInfo), UpnpEstimateError> {
-        validate(corrs)?;
-        if corrs.len() < self.sample_size {
-            return Err(UpnpError::TooFewCorrespondences { got: corrs.len(), need: self.sample_size }.into());
-        }
-        let result = ransac(self, corrs, options).ok_or(RobustError::NoModel { iterations: options.max_iterations })?;
-        Ok(EstimateInfo::split(result))
+        robust::estimate(self, corrs, options, validate, |got, need| UpnpError::TooFewCorrespondences { got, need })
     }
 }
 

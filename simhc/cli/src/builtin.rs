@@ -228,7 +228,10 @@ impl Registration for Upnp {
 
     fn command(&self, verb: Verb) -> Option<Command> {
         Some(match verb {
-            Verb::Ransac => return None,
+            Verb::Ransac => command::<crate::ransac::RansacArgs>(
+                "upnp",
+                "UPnP's robust estimator (4-correspondence samples) on scenes with wrong matches; --threshold in radians",
+            ),
             Verb::Bench => command::<UpnpBench>("upnp", "Generalized absolute pose (UPnP): the paper's Table 1"),
             Verb::Train => return train_command("upnp", "Train the UPnP regressor (defaults: the shipped weights' settings)"),
             Verb::Solve => command::<SolveArgs>("upnp", "Solve UPnP correspondences {\"correspondences\": [{\"p\", \"f\", \"v\"}, ..]}"),
@@ -282,7 +285,15 @@ impl Registration for Upnp {
             Verb::Train => Err(NO_TRAINER.into()),
             Verb::Solve => solve(args, upnp::solve_file),
             Verb::Monodromy => MonodromyArgs::run(args, simhc_problems::start_systems::run_monodromy_upnp),
-            Verb::Ransac => Err(NO_RANSAC.into()),
+            Verb::Ransac => {
+                let a: crate::ransac::RansacArgs = parse(args)?;
+                println!(
+                    "simhc ransac upnp: {} scenes of {} correspondences per outlier ratio, seed {}, {} px, threshold {} rad, PoseLib's iteration defaults",
+                    a.trials, a.rows, a.seed, a.noise, a.threshold
+                );
+                print!("{}", crate::ransac::table(&upnp::ransac(&a)?));
+                Ok(())
+            }
         }
     }
 }

@@ -64,7 +64,7 @@ pub struct RansacRow {
 }
 
 /// Checks the arguments before any scene is drawn.
-fn check(a: &RansacArgs, data_rows: usize) -> Result<(), String> {
+pub fn check(a: &RansacArgs, data_rows: usize) -> Result<(), String> {
     if a.trials == 0 {
         return Err("--trials: at least 1".into());
     }
@@ -83,49 +83,42 @@ fn check(a: &RansacArgs, data_rows: usize) -> Result<(), String> {
     Ok(())
 }
 
-/// Runs the estimator on the scenes of every outlier ratio and returns the rows.
-pub fn run<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>(
-    problem: &S,
-    solver: &Solver<S, NX, NF, NP, NC, ND>,
-    data_rows: usize,
+/// What one trial gave: which rows are true matches, and the estimate's success and inlier
+/// mask (`None`: no model).
+pub struct TrialOutcome {
+    /// Whether each row is a true match.
+    pub inlier: Vec<bool>,
+    /// Whether the estimate meets the problem's criterion, and its inlier mask.
+    pub estimate: Option<(bool, Vec<bool>)>,
+    /// Time of the estimator's call (ms).
+    pub ms: f64,
+}
+
+/// The rows of every outlier ratio of `a`: `trial(rng, ratio, seed)` draws one scene with that
+/// fraction of wrong matches from `rng` (seeded with `a.seed` at every ratio) and runs the
+/// estimator with the sampler seed `seed`.
+pub fn rows_of(
     a: &RansacArgs,
-) -> Result<Vec<RansacRow>, String>
-where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-{
-    check(a, data_rows)?;
-    let missing = || format!("{} has no many-row sampler (DeclaredProblem::scene_rows)", S::NAME);
+    mut trial: impl FnMut(&mut ChaCha8Rng, f64, u64) -> Result<TrialOutcome, String>,
+) -> Result<Vec<RansacRow>, String> {
     let mut out = Vec::new();
     for &ratio in &a.outliers {
-        // The same scenes at every ratio: only the replaced rows differ.
+        // The same scenes at every ratio: only the wrong rows differ.
         let mut rng = ChaCha8Rng::seed_from_u64(a.seed);
         let (mut succeeded, mut no_model) = (0, 0);
         let (mut recall, mut wrong, mut ms) = (Vec::new(), Vec::new(), Vec::new());
-        for trial in 0..a.trials {
-            let (mut rows, globals, truth) = problem.scene_rows(&mut rng, a.rows, a.noise).ok_or_else(missing)?;
-            let per_row = rows.len() / a.rows;
-            let inlier: Vec<bool> = (0..a.rows).map(|_| rng.random::<f64>() >= ratio).collect();
-            for (k, _) in inlier.iter().enumerate().filter(|(_, keep)| !**keep) {
-                let (other, _, _) = problem.scene_rows(&mut rng, data_rows, a.noise).ok_or_else(missing)?;
-                // Row k of the other scene, or its last when it has fewer.
-                let j = k.min(data_rows - 1);
-                rows[k * per_row..(k + 1) * per_row].copy_from_slice(&other[j * per_row..(j + 1) * per_row]);
-            }
-            let options = RansacOptions { seed: a.seed.wrapping_add(trial as u64), ..RansacOptions::poselib(a.threshold) };
-            let t0 = Instant::now();
-            let result = solver.estimate(&rows, &globals, &options);
-            ms.push(t0.elapsed().as_secs_f64() * 1e3);
-            match result {
-                Ok((x, info)) => {
-                    if problem.correct(&problem.errors(&x, &truth)) {
-                        succeeded += 1;
-                    }
-                    let true_count = inlier.iter().filter(|t| **t).count().max(1);
-                    let kept = info.inlier_mask.iter().zip(&inlier).filter(|(m, t)| **m && **t).count();
+        for k in 0..a.trials {
+            let t = trial(&mut rng, ratio, a.seed.wrapping_add(k as u64))?;
+            ms.push(t.ms);
+            match t.estimate {
+                Some((correct, mask)) => {
+                    succeeded += usize::from(correct);
+                    let true_count = t.inlier.iter().filter(|t| **t).count().max(1);
+                    let kept = mask.iter().zip(&t.inlier).filter(|(m, t)| **m && **t).count();
                     recall.push(100.0 * kept as f64 / true_count as f64);
-                    wrong.push(info.inlier_mask.iter().zip(&inlier).filter(|(m, t)| **m && !**t).count() as f64);
+                    wrong.push(mask.iter().zip(&t.inlier).filter(|(m, t)| **m && !**t).count() as f64);
                 }
-                Err(_) => {
+                None => {
                     no_model += 1;
                     recall.push(0.0);
                     wrong.push(0.0);
@@ -143,6 +136,42 @@ where
         });
     }
     Ok(out)
+}
+
+/// Which of `rows` rows are true matches at the fraction `ratio` of wrong ones.
+pub fn draw_inliers(rng: &mut ChaCha8Rng, rows: usize, ratio: f64) -> Vec<bool> {
+    (0..rows).map(|_| rng.random::<f64>() >= ratio).collect()
+}
+
+/// Runs a declared problem's estimator on the scenes of every outlier ratio and returns the rows.
+pub fn run<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>(
+    problem: &S,
+    solver: &Solver<S, NX, NF, NP, NC, ND>,
+    data_rows: usize,
+    a: &RansacArgs,
+) -> Result<Vec<RansacRow>, String>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    check(a, data_rows)?;
+    let missing = || format!("{} has no many-row sampler (DeclaredProblem::scene_rows)", S::NAME);
+    rows_of(a, |rng, ratio, seed| {
+        let (mut rows, globals, truth) = problem.scene_rows(rng, a.rows, a.noise).ok_or_else(missing)?;
+        let per_row = rows.len() / a.rows;
+        let inlier = draw_inliers(rng, a.rows, ratio);
+        for (k, _) in inlier.iter().enumerate().filter(|(_, keep)| !**keep) {
+            let (other, _, _) = problem.scene_rows(rng, data_rows, a.noise).ok_or_else(missing)?;
+            // Row k of the other scene, or its last when it has fewer.
+            let j = k.min(data_rows - 1);
+            rows[k * per_row..(k + 1) * per_row].copy_from_slice(&other[j * per_row..(j + 1) * per_row]);
+        }
+        let options = RansacOptions { seed, ..RansacOptions::poselib(a.threshold) };
+        let t0 = Instant::now();
+        let result = solver.estimate(&rows, &globals, &options);
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let estimate = result.ok().map(|(x, info)| (problem.correct(&problem.errors(&x, &truth)), info.inlier_mask));
+        Ok(TrialOutcome { inlier, estimate, ms })
+    })
 }
 
 /// The rows as a text table.

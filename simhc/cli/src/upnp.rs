@@ -270,3 +270,56 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
         "track": {"accepted_steps": report.stats.accepted_steps, "rejected_steps": report.stats.rejected_steps, "newton_iterations": report.stats.newton_iterations},
     }))
 }
+
+/// `simhc ransac upnp`: [`simhc_problems::upnp::ransac::UpnpEstimator`] on scenes of the UPnP
+/// sampler (`a.rows` correspondences, `a.noise` px) in which a wrong match takes the world
+/// point of another scene; success is the paper's (E_R < 2 deg) and E_t < 5 %.
+pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<Vec<crate::ransac::RansacRow>, String> {
+    use simhc::ransac::RansacOptions;
+    use simhc_problems::upnp::ransac::UpnpEstimator;
+    crate::ransac::check(a, simhc_problems::upnp::geometry::UPNP_MIN_CORRESPONDENCES)?;
+    let scenes = UpnpSceneConfig { points: a.rows, noise_px: a.noise, ..UpnpSceneConfig::default() };
+    let solver = match &a.weights {
+        Some(path) => {
+            let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            UpnpSolver::with_network(simhc::regressor::FoldedNetwork::from_bytes(&bytes).map_err(|e| format!("{}: {e}", path.display()))?)
+        }
+        None => UpnpSolver::new().map_err(|e| e.to_string())?,
+    };
+    let estimator = UpnpEstimator::new(solver, (8.0 * a.noise / scenes.focal_px).max(1e-6));
+    crate::ransac::rows_of(a, |rng, ratio, seed| {
+        let mut scene = scenes.sample(rng).map_err(|e| e.to_string())?;
+        let inlier = crate::ransac::draw_inliers(rng, a.rows, ratio);
+        for (c, _) in scene.correspondences.iter_mut().zip(&inlier).filter(|(_, keep)| !**keep) {
+            let other = UpnpSceneConfig { points: 1, ..scenes }.sample(rng).map_err(|e| e.to_string())?;
+            c.p = other.correspondences[0].p;
+        }
+        let options = RansacOptions { seed, ..RansacOptions::poselib(a.threshold) };
+        let t0 = Instant::now();
+        let result = estimator.estimate(&scene.correspondences, &options);
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let estimate = result.ok().map(|(pose, info)| {
+            let correct = rotation_error_deg(&pose.rotation, &scene.rotation) < 2.0
+                && translation_error_pct(&pose.translation, &scene.translation) < 5.0;
+            (correct, info.inlier_mask)
+        });
+        Ok(crate::ransac::TrialOutcome { inlier, estimate, ms })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::ransac::RansacArgs;
+
+    #[test]
+    fn the_ransac_rows_find_every_pose_and_its_inliers() {
+        let a = RansacArgs { trials: 3, seed: 5, rows: 40, noise: 0.0, outliers: vec![0.0, 0.4], threshold: 1e-4, weights: None };
+        let rows = super::ransac(&a).expect("runs");
+        assert_eq!(rows.len(), 2);
+        for r in &rows {
+            assert_eq!((r.success_pct, r.recall_pct, r.wrong_taken, r.no_model), (100.0, 100.0, 0.0, 0), "{r:?}");
+        }
+        let bad = RansacArgs { rows: 2, ..a };
+        assert!(super::ransac(&bad).unwrap_err().contains("--rows 2"));
+    }
+}

@@ -112,12 +112,37 @@ def run_poselib(tr, threshold):
     return R, t, mask, micros, info
 
 
-def main():
+def common_arguments():
+    """The arguments of both robust scripts (this one and robust_upnp.py)."""
     ap = argparse.ArgumentParser()
     ap.add_argument("--trials", type=int, default=100)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--outliers", type=float, default=0.2)
     ap.add_argument("--noise-px", type=float, default=1.0)
+    return ap
+
+
+def print_table(table):
+    """One row per solver of `table` ({name: [(success, recall, micros), ..]}), the trials each
+    failed, and the median times {name: us}."""
+    print("| solver | success % | inlier recall % (median) | t med us | t mean us |")
+    print("|---|---|---|---|---|")
+    medians = {}
+    for name, rows in table.items():
+        ok = np.array([r[0] for r in rows])
+        recall = np.array([r[1] for r in rows])
+        us = np.array([r[2] for r in rows])
+        medians[name] = np.median(us)
+        print(f"| {name} | {100 * ok.mean():.1f} | {100 * np.median(recall):.1f} | {np.median(us):.0f} | {us.mean():.0f} |")
+    for name, rows in table.items():
+        failed = [k for k, r in enumerate(rows) if not r[0]]
+        if failed:
+            print(f"  {name} failed trials: {failed[:20]}")
+    return medians
+
+
+def main():
+    ap = common_arguments()
     ap.add_argument("--runner", default="target/release/grp_robust")
     ap.add_argument("--out", default="bench/peers/build/results")
     a = ap.parse_args()
@@ -147,14 +172,7 @@ def main():
         er, et = errors(R, t, tr["R"], tr["t"])
         recall = np.sum(mask & truth) / truth.sum()
         table["poselib.estimate_generalized_relative_pose"].append((er < 2 and et < 5, recall, micros))
-    print(f"| solver | success % | inlier recall % (median) | t med us | t mean us |")
-    print(f"|---|---|---|---|---|")
-    for name, rows in table.items():
-        ok = 100 * np.mean([r[0] for r in rows])
-        rec = 100 * np.median([r[1] for r in rows])
-        tm = [r[2] for r in rows]
-        print(f"| {name} | {ok:.1f} | {rec:.1f} | {np.median(tm):.0f} | {np.mean(tm):.0f} |")
-
+    print_table(table)
 
 if __name__ == "__main__":
     sys.exit(main())

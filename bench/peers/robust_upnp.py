@@ -19,7 +19,6 @@ and as a distance in the normalized image plane for PoseLib (`max_reproj_error`,
 have focal 1).
 """
 
-import argparse
 import math
 import time
 
@@ -28,7 +27,7 @@ import poselib
 
 import simhc
 
-from robust_grp import FOCAL, errors, perturb, rotation
+from robust_grp import FOCAL, common_arguments, errors, perturb, print_table, rotation
 
 
 def scene(rng, outliers, sigma):
@@ -86,12 +85,7 @@ def run_poselib(tr, threshold):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--trials", type=int, default=100)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--outliers", type=float, default=0.2)
-    ap.add_argument("--noise-px", type=float, default=1.0)
-    a = ap.parse_args()
+    a = common_arguments().parse_args()
     print(f"robust_upnp: seed {a.seed}, {a.trials} trials, outliers {a.outliers}, noise {a.noise_px} px", flush=True)
     rng = np.random.default_rng(a.seed)
     sigma = a.noise_px / FOCAL
@@ -107,18 +101,7 @@ def main():
         ):
             er, et = errors(R, t, tr["R"], tr["t"]) if R is not None else (math.inf, math.inf)
             table[name].append((er < 2 and et < 5, np.sum(mask & truth) / truth.sum(), micros))
-    print("| solver | success % | inlier recall % (median) | t med us | t mean us |")
-    print("|---|---|---|---|---|")
-    medians = {}
-    for name, rows in table.items():
-        ok = np.array([r[0] for r in rows])
-        recall = np.array([r[1] for r in rows])
-        us = np.array([r[2] for r in rows])
-        medians[name] = np.median(us)
-        print(f"| {name} | {100 * ok.mean():.1f} | {100 * np.median(recall):.1f} | {np.median(us):.0f} | {us.mean():.0f} |")
-        failed = [k for k, r in enumerate(rows) if not r[0]]
-        if failed:
-            print(f"  {name} failed trials: {failed[:20]}")
+    medians = print_table(table)
     s, p = medians["simhc.estimate_upnp"], medians["poselib.estimate_generalized_absolute_pose"]
     print(f"time per call, simhc / PoseLib (median): {s / p:.2f}")
 

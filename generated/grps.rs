@@ -1654,6 +1654,7 @@ pub mod grps {
             "row6.vp[2]",
         ];
     }
+    impl ::simhc::InstanceSizes<8, 84> for Grps7 {}
     impl ::simhc::ProblemLayout for Grps7 {
         const LAYOUT: ::simhc::Layout = ::simhc::Layout {
             unknowns: &[
@@ -10015,6 +10016,7 @@ pub mod grps {
             "row7.vp[2]",
         ];
     }
+    impl ::simhc::InstanceSizes<8, 96> for Grps8 {}
     impl ::simhc::ProblemLayout for Grps8 {
         const LAYOUT: ::simhc::Layout = ::simhc::Layout {
             unknowns: &[

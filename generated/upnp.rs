@@ -340,6 +340,7 @@ pub mod upnp {
             "m[10][10]",
         ];
     }
+    impl ::simhc::InstanceSizes<4, 66> for Upnp {}
     impl ::simhc::ProblemLayout for Upnp {
         const LAYOUT: ::simhc::Layout = ::simhc::Layout {
             unknowns: &[

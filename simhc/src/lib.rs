@@ -33,7 +33,8 @@ pub mod training;
 
 pub use layout::{FieldKind, FieldLayout, FieldNorm, Layout, ProblemLayout};
 pub use problem::{
-    CoefficientForm, NoLanes, ParamDerivative, ParamLanes, ParamRowLayout, PathLanes, Problem, ProblemInfo, RowLanes, RowLayout,
+    CoefficientForm, InstanceSizes, NoLanes, ParamDerivative, ParamLanes, ParamRowLayout, PathLanes, Problem, ProblemInfo, RowLanes,
+    RowLayout,
 };
 pub use scalar::Scalar;
 pub use simhc_macros::simhc_problem;

@@ -8,6 +8,16 @@
 use crate::Scalar;
 use nalgebra::{SMatrix, SVector};
 
+/// The sizes of a compiled instance: `NX` unknowns and `NP` parameters. `#[simhc_problem]`
+/// implements it for every instance, so a bound such as `Data: InstanceSizes<NX, ND>` checks
+/// the sizes a user writes at compile time, on the user's tokens.
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` is not an instance with {NX} unknowns and {NP} parameters",
+    label = "this instance has other sizes",
+    note = "`#[simhc_problem]` gives every instance its sizes as constants: write `Foo7::NX` and `Foo7::NP` instead of numbers"
+)]
+pub trait InstanceSizes<const NX: usize, const NP: usize> {}
+
 /// Static description of a problem instance.
 pub trait ProblemInfo {
     /// Human-readable name, e.g. `"grps8"`.

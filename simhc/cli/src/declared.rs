@@ -455,21 +455,17 @@ where
     }
 
     fn run(&self, verb: Verb, args: &ArgMatches) -> Result<(), String> {
+        // The sizes are checked by the trait's bounds at compile time; that the tracked rows are
+        // the first rows of the data is not a size.
         let (data, tracked) = (S::Data::LAYOUT, S::Tracked::LAYOUT);
-        if data.param_len() != ND
-            || tracked.param_len() != NP
-            || tracked.unknown_len() != NX
-            || data.unknown_len() != NX
-            || tracked.rows > data.rows
-        {
+        if tracked.rows > data.rows || tracked.per_row != data.per_row {
             return Err(format!(
-                "{}: sizes do not match the instances: Data has {} parameters (ND = {ND}), Tracked {} (NP = {NP}), {} unknowns (NX = {NX}), {} rows of Data's {}",
+                "{}: the tracked instance ({} rows of {}) is not the first rows of the data instance ({} rows of {})",
                 S::NAME,
-                data.param_len(),
-                tracked.param_len(),
-                tracked.unknown_len(),
                 tracked.rows,
-                data.rows
+                tracked.per_row,
+                data.rows,
+                data.per_row
             ));
         }
         match verb {

@@ -7,7 +7,7 @@
 use super::subsystem::AllRoots;
 use crate::pipeline::{InputRows, Validator};
 use crate::training::LearnedStartConfig;
-use crate::{CoefficientForm, OnlineSimulator, ParamDerivative, ProblemLayout};
+use crate::{CoefficientForm, InstanceSizes, OnlineSimulator, ParamDerivative, ProblemLayout};
 use nalgebra::SVector;
 use rand_chacha::ChaCha8Rng;
 
@@ -35,7 +35,7 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     type Tracked: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP> + ProblemLayout + OnlineSimulator<NX, NF, NP> + Default;
     /// The instance of all the user's rows (its layout reads input files and feeds the learned
     /// start).
-    type Data: ProblemLayout;
+    type Data: ProblemLayout + InstanceSizes<NX, ND>;
     /// What decides that an end point is a solution of all the data.
     type Validator: Validator<SVector<f64, ND>, NX>;
     /// The name on the command line (lower case).

@@ -169,6 +169,8 @@ pub(super) fn instance(decl: &Declaration, lowered: &Lowered, expanded: &Expande
             const PARAM_NAMES: &'static [&'static str] = &[#(#param_names),*];
         }
 
+        impl ::simhc::InstanceSizes<#nx, #np> for #type_name {}
+
         impl ::simhc::ProblemLayout for #type_name {
             const LAYOUT: ::simhc::Layout = ::simhc::Layout {
                 unknowns: &[#(#layout_unknowns),*],

@@ -211,8 +211,6 @@ fn madd<const FMA: bool>(a: f32, b: f32, c: f32) -> f32 {
     }
 }
 
-/// A trained regressor with batch norm folded into its dense layers (module docs), ready for an
-/// allocation-free [`forward`](Self::forward) at batch size 1.
 /// How a network's outputs hold several start hypotheses ([`HypothesisBlocks::of`]): `count`
 /// blocks of one prediction's `width` numbers, then, when `scored`, one score (a logit) per
 /// block, which ranks them (higher first). A network with one hypothesis has no score.
@@ -257,8 +255,37 @@ impl HypothesisBlocks {
     pub fn score(&self, out: &[f64], k: usize) -> Option<f64> {
         self.scored.then(|| out[self.count * self.width + k])
     }
+
+    /// The hypotheses of the outputs `out` in rank order, best first: by their scores (higher
+    /// first) when scored, otherwise by `cost` (lower first; the caller's measure on the data,
+    /// or a constant to keep the network's order). Stable: ties keep the network's order. The
+    /// first [`HypothesisBlocks::count`] entries are the ranking; `N` must be at least `count`.
+    /// No heap allocation.
+    pub fn ranked<const N: usize>(&self, out: &[f64], mut cost: impl FnMut(usize) -> f64) -> [usize; N] {
+        assert!(self.count <= N, "{} hypotheses do not fit a ranking of {N}", self.count);
+        let mut order: [usize; N] = std::array::from_fn(|k| k);
+        let mut key = [0.0f64; N];
+        for (k, key) in key.iter_mut().enumerate().take(self.count) {
+            *key = match self.score(out, k) {
+                Some(s) => -s,
+                None => cost(k),
+            };
+        }
+        // Insertion sort of a handful: stable, no allocation. NaN sorts last (`total_cmp`).
+        for i in 1..self.count {
+            let mut j = i;
+            while j > 0 && key[j - 1].total_cmp(&key[j]).is_gt() {
+                key.swap(j - 1, j);
+                order.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+        order
+    }
 }
 
+/// A trained regressor with batch norm folded into its dense layers (module docs), ready for an
+/// allocation-free [`forward`](Self::forward) at batch size 1.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FoldedNetwork {
     input_width: usize,
@@ -521,6 +548,19 @@ mod tests {
         }
         let b = HypothesisBlocks::trained(2, 2);
         assert_eq!(b.score(&[0.0, 0.0, 0.0, 0.0, 0.25, 0.75], 1), Some(0.75));
+    }
+
+    #[test]
+    fn hypotheses_rank_by_score_else_by_the_cost_stably() {
+        // Three scored blocks of width 1: scores 0.1, 0.9, 0.5 rank 1, 2, 0; the cost is unused.
+        let scored = HypothesisBlocks::trained(1, 3);
+        let out = [10.0, 11.0, 12.0, 0.1, 0.9, 0.5];
+        assert_eq!(&scored.ranked::<8>(&out, |_| panic!("scored blocks ignore the cost"))[..3], &[1, 2, 0]);
+        // Unscored: the cost, lower first; equal costs and NaN keep the network's order, NaN last.
+        let unscored = HypothesisBlocks { width: 1, count: 4, scored: false };
+        let costs = [2.0, f64::NAN, 1.0, 2.0];
+        assert_eq!(&unscored.ranked::<8>(&out, |k| costs[k])[..4], &[2, 0, 3, 1]);
+        assert_eq!(&unscored.ranked::<4>(&out, |_| 0.0), &[0, 1, 2, 3]);
     }
 
     fn tiny() -> FoldedNetwork {

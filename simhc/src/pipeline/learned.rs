@@ -160,12 +160,8 @@ impl<R: InputRows> LearnedStart<R> {
         }
         let all = &mut all[..blocks.outputs()];
         self.predict_all(p, all)?;
-        let best = (0..blocks.count).max_by(|&a, &b| {
-            let score = |k| blocks.score(all, k).unwrap_or(0.0);
-            // Ties (unscored) keep the first.
-            score(a).total_cmp(&score(b)).then(b.cmp(&a))
-        });
-        let k = best.unwrap_or(0);
+        // Unscored: the network's first.
+        let k = blocks.ranked::<MAX_HYPOTHESES>(all, |_| 0.0)[0];
         x.copy_from_slice(&all[k * n..(k + 1) * n]);
         Ok(())
     }

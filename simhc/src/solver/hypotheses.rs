@@ -105,25 +105,12 @@ where
         self.learned
             .predict_all(p.as_slice(), &mut out[..blocks.outputs()])
             .map_err(|e| StartError { provider: "learned", reason: e.to_string() })?;
+        let hypothesis = |k: usize| SVector::<f64, NX>::from_column_slice(&out[k * NX..(k + 1) * NX]);
+        // An unscored network of several hypotheses: ranked by the data's residual.
+        let order = blocks.ranked::<MAX_HYPOTHESES>(&out, |k| if count > 1 { self.score(&hypothesis(k), p) } else { 0.0 });
         let mut ranked = Ranked { x: [SVector::zeros(); MAX_HYPOTHESES], count };
-        // Lower first: the negated score, or the data's residual.
-        let mut score = [0.0f64; MAX_HYPOTHESES];
-        for k in 0..count {
-            ranked.x[k] = SVector::from_column_slice(&out[k * NX..(k + 1) * NX]);
-            score[k] = match blocks.score(&out, k) {
-                Some(s) => -s,
-                None if count > 1 => self.score(&ranked.x[k], p),
-                None => 0.0,
-            };
-        }
-        // Insertion sort of a handful: stable, no allocation.
-        for i in 1..count {
-            let mut j = i;
-            while j > 0 && score[j - 1].total_cmp(&score[j]).is_gt() {
-                score.swap(j - 1, j);
-                ranked.x.swap(j - 1, j);
-                j -= 1;
-            }
+        for (x, &k) in ranked.x.iter_mut().zip(&order[..count]) {
+            *x = hypothesis(k);
         }
         Ok(ranked)
     }

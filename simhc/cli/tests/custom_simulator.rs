@@ -1,11 +1,14 @@
 //! A problem declared with `#[simhc_problem(simulator = custom)]` brings its own
 //! `OnlineSimulator`, and the registration uses it (`bench` and `solve` build the same
-//! pipeline from `DeclaredProblem::Tracked`), not the generic one.
+//! pipeline from `DeclaredProblem::Tracked`), not the generic one. A problem's lists of other
+//! starts and other simulators (`DeclaredProblem::other_starts`, `other_simulators`) run after
+//! the learned start's attempts.
 
 use nalgebra::SVector;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use simhc::solver::DeclaredProblem;
+use simhc::pipeline::{Attempt, Method, Origin, StartError, StartProvider, StartSimulator};
+use simhc::solver::{DeclaredProblem, OtherSimulator, OtherStart, Solver, SolverError, MAX_OTHERS};
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
 use simhc_cli::{App, Declared};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -70,14 +73,22 @@ impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Line {
     }
 }
 
+/// Weights for the line, trained here by the `train` command (a small network).
+fn trained_weights(dir: &std::path::Path) -> std::path::PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let weights = dir.join("line.folded");
+    let app = App::new("lines", "test").register(Declared::new(Line));
+    app.run_from(["lines", "train", "line", "--samples", "256", "--epochs", "2", "--seed", "3", "--out", weights.to_str().unwrap()])
+        .expect("trains");
+    weights
+}
+
 #[test]
 fn bench_calls_the_custom_simulator() {
     let dir = std::env::temp_dir().join(format!("simhc-custom-simulator-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let weights = dir.join("line.folded");
+    let weights = trained_weights(&dir);
     let weights = weights.to_str().unwrap();
     let app = || App::new("lines", "test").register(Declared::new(Line));
-    app().run_from(["lines", "train", "line", "--samples", "256", "--epochs", "2", "--seed", "3", "--out", weights]).expect("trains");
 
     // Rand + Sim HC tracks from a random start on every trial: the simulator runs each time.
     let before = CALLS.load(Ordering::SeqCst);
@@ -86,4 +97,124 @@ fn bench_calls_the_custom_simulator() {
     assert!(bench >= 20, "the custom simulator ran {bench} times in a bench of 20 trials");
 
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Calls of the listed problem's other start and other simulator.
+static OTHER_STARTS: AtomicUsize = AtomicUsize::new(0);
+static OTHER_SIMULATIONS: AtomicUsize = AtomicUsize::new(0);
+
+/// The slope of least squares through the origin: a closed-form start, counted.
+struct LeastSquares;
+
+impl StartProvider<SVector<f64, 6>, 1> for LeastSquares {
+    fn name(&self) -> &'static str {
+        "least squares"
+    }
+    fn start(&self, p: &SVector<f64, 6>) -> Result<SVector<f64, 1>, StartError> {
+        OTHER_STARTS.fetch_add(1, Ordering::SeqCst);
+        let (xy, xx) = p.as_slice().chunks_exact(2).fold((0.0, 0.0), |(xy, xx), r| (xy + r[0] * r[1], xx + r[0] * r[0]));
+        Ok(SVector::from([xy / xx]))
+    }
+}
+
+/// Another simulator: the minimum-norm one, counted.
+struct Counted;
+
+impl StartSimulator<SVector<f64, 6>, 1, 3, 6> for Counted {
+    fn simulate(&self, _: &SVector<f64, 6>, x0: &SVector<f64, 1>, p: &SVector<f64, 6>) -> Result<SVector<f64, 6>, SimulatorError> {
+        OTHER_SIMULATIONS.fetch_add(1, Ordering::SeqCst);
+        MinNormSimulator::<Line3>::new().run::<1, 3, 6>(x0, p)
+    }
+}
+
+/// The line with `starts` other starts and `simulators` other simulators.
+struct Listed {
+    starts: usize,
+    simulators: usize,
+}
+
+impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Listed {
+    type Tracked = Line3;
+    type Data = Line3;
+    type Validator = Residual;
+    const NAME: &'static str = "listed";
+    const ABOUT: &'static str = "a line through the origin with other starts and simulators";
+    const ERRORS: &'static [&'static str] = &["slope error"];
+    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
+        Line.scene(rng, noise)
+    }
+    fn validator(&self, noise: f64) -> Residual {
+        Line.validator(noise)
+    }
+    fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
+        Line.errors(x, truth)
+    }
+    fn correct(&self, errors: &[f64]) -> bool {
+        Line.correct(errors)
+    }
+    fn other_starts(&self) -> Vec<OtherStart<1, 6>> {
+        (0..self.starts).map(|_| Box::new(LeastSquares) as OtherStart<1, 6>).collect()
+    }
+    fn other_simulators(&self) -> Vec<OtherSimulator<1, 3, 6, 6>> {
+        (0..self.simulators).map(|_| Box::new(Counted) as OtherSimulator<1, 3, 6, 6>).collect()
+    }
+}
+
+#[test]
+fn the_other_starts_and_simulators_run_after_the_learned_start() {
+    use rand::SeedableRng;
+    let dir = std::env::temp_dir().join(format!("simhc-listed-{}", std::process::id()));
+    let weights = std::fs::read(trained_weights(&dir)).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let solver = Solver::with_weights(Listed { starts: 1, simulators: 1 }, &weights, 0.0).expect("builds");
+
+    // One hypothesis at providers 0 and 1, slot 2 free, the other start at 3: after the shipped
+    // attempts, one path from the learned start with the other simulator, then the other
+    // start's Gauss-Newton and its paths with both simulators.
+    let a = |provider, method| Attempt { provider, method };
+    let tail = [a(0, Method::OtherSimulatorHc(0)), a(3, Method::GaussNewton), a(3, Method::SimulatorHc), a(3, Method::OtherSimulatorHc(0))];
+    let schedule = solver.schedule();
+    assert!(schedule.len() > tail.len() && schedule.ends_with(&tail), "schedule {schedule:?}");
+
+    let seed = 11;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for _ in 0..10 {
+        let (p, truth) = Listed { starts: 1, simulators: 1 }.scene(&mut rng, 0.0);
+        // Each attempt of the tail alone: it runs the listed start or simulator and solves.
+        for attempt in tail {
+            let (starts, simulations) = (OTHER_STARTS.load(Ordering::SeqCst), OTHER_SIMULATIONS.load(Ordering::SeqCst));
+            let solved = solver.run_pipeline(&p, &[attempt], false, None).expect("the listed attempt solves the line");
+            assert!((solved.x[0] - truth[0]).abs() < 1e-9, "{attempt:?}: slope {} for {}", solved.x[0], truth[0]);
+            assert_eq!(solved.origin, Origin::Path { provider: attempt.provider, method: attempt.method });
+            let ran_start = OTHER_STARTS.load(Ordering::SeqCst) > starts;
+            let ran_simulator = OTHER_SIMULATIONS.load(Ordering::SeqCst) > simulations;
+            assert_eq!(ran_start, attempt.provider == 3, "{attempt:?}: the other start ran: {ran_start}");
+            assert_eq!(
+                ran_simulator,
+                attempt.method == Method::OtherSimulatorHc(0),
+                "{attempt:?}: the other simulator ran: {ran_simulator}"
+            );
+        }
+    }
+}
+
+#[test]
+fn more_other_starts_or_simulators_than_a_solver_holds_are_an_error() {
+    let dir = std::env::temp_dir().join(format!("simhc-listed-many-{}", std::process::id()));
+    let weights = std::fs::read(trained_weights(&dir)).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let many = MAX_OTHERS + 1;
+    for (problem, what) in
+        [(Listed { starts: many, simulators: 0 }, "other starts"), (Listed { starts: 0, simulators: many }, "other simulators")]
+    {
+        match Solver::with_weights(problem, &weights, 0.0) {
+            Err(e @ SolverError::TooMany { .. }) => {
+                assert_eq!(e, SolverError::TooMany { problem: "listed", what, count: many });
+                assert!(e.to_string().contains(&format!("at most {MAX_OTHERS}")), "{e}");
+            }
+            other => panic!("{what}: {:?}", other.map(|_| "a solver")),
+        }
+    }
+    assert!(Solver::with_weights(Listed { starts: MAX_OTHERS, simulators: MAX_OTHERS }, &weights, 0.0).is_ok());
 }

@@ -29,6 +29,32 @@ pub const fn provider_count(hypotheses: usize) -> usize {
     provider(if hypotheses == 0 { 0 } else { hypotheses - 1 }, true) + 1
 }
 
+/// The index of the problem's `j`-th other start ([`DeclaredProblem::other_starts`]) in a
+/// solve's provider list: after the hypotheses' providers and slot 2.
+pub const fn other_provider(hypotheses: usize, j: usize) -> usize {
+    let first = provider_count(hypotheses);
+    (if first > 3 { first } else { 3 }) + j
+}
+
+/// The attempts a solver runs after [`ranked_schedule`] for a problem with `starts` other
+/// starts and `simulators` other simulators ([`DeclaredProblem::other_starts`],
+/// [`DeclaredProblem::other_simulators`]): one path from every hypothesis with each other
+/// simulator, then for each other start Gauss-Newton, a path with the own simulator and one
+/// with each other simulator.
+pub fn other_attempts(hypotheses: usize, starts: usize, simulators: usize) -> Vec<Attempt> {
+    let mut out = Vec::new();
+    for k in 0..simulators {
+        out.extend((0..hypotheses.max(1)).map(|rank| Attempt { provider: provider(rank, false), method: Method::OtherSimulatorHc(k) }));
+    }
+    for j in 0..starts {
+        let provider = other_provider(hypotheses, j);
+        out.push(Attempt { provider, method: Method::GaussNewton });
+        out.push(Attempt { provider, method: Method::SimulatorHc });
+        out.extend((0..simulators).map(|k| Attempt { provider, method: Method::OtherSimulatorHc(k) }));
+    }
+    out
+}
+
 /// `base` (a schedule of one hypothesis over providers 0 and 1, [`super::shipped_schedule`])
 /// for `hypotheses` ranked hypotheses: its attempts other than Simulator HC on every hypothesis
 /// in rank order (cheap: a refinement and Gauss-Newton, a few microseconds each), then its
@@ -170,6 +196,22 @@ mod tests {
         seen.dedup();
         assert_eq!(seen.len(), 2 * MAX_HYPOTHESES);
         assert!(!seen.contains(&2), "slot 2 is the caller's");
+        assert_eq!(other_provider(1, 0), 3, "after slot 2");
+        assert_eq!(other_provider(3, 1), provider_count(3) + 1);
+    }
+
+    #[test]
+    fn other_simulators_follow_the_hypotheses_and_other_starts_come_last() {
+        let a = |provider, method| Attempt { provider, method };
+        let expect = [
+            a(0, Method::OtherSimulatorHc(0)),
+            a(3, Method::OtherSimulatorHc(0)),
+            a(5, Method::GaussNewton),
+            a(5, Method::SimulatorHc),
+            a(5, Method::OtherSimulatorHc(0)),
+        ];
+        assert_eq!(other_attempts(2, 1, 1), expect);
+        assert!(other_attempts(4, 0, 0).is_empty());
     }
 
     #[test]

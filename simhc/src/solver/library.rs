@@ -17,14 +17,14 @@
 //! when it ends validated and the problem's own hooks do not allocate (a
 //! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`).
 
-use super::hypotheses::{provider, provider_count, ranked_schedule, RankedStart, RankedStarts};
+use super::hypotheses::{other_attempts, other_provider, provider, provider_count, ranked_schedule, RankedStart, RankedStarts};
 use super::parts::{Canon, FirstRows, FirstRowsError, Refined};
-use super::problem::DeclaredProblem;
+use super::problem::{DeclaredProblem, OtherSimulator, OtherStart};
 use super::subsystem::AllRootsFallback;
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{
     Attempt, AttemptError, Generic, InputRows, LayoutRows, LearnedStart, Method, Origin, Pipeline, PipelineError, PipelineOptions, Solved,
-    StartError, StartProvider, Validator, MAX_HYPOTHESES,
+    StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
 };
 use crate::regressor::{FoldedNetwork, RegressorError};
 use crate::ProblemLayout;
@@ -136,9 +136,24 @@ pub enum SolveError<C: Debug, const NX: usize> {
     },
 }
 
+/// Most other starts, and most other simulators, a problem may bring
+/// ([`DeclaredProblem::other_starts`], [`DeclaredProblem::other_simulators`]): a solve holds
+/// them in fixed arrays, without allocation.
+pub const MAX_OTHERS: usize = 8;
+
 /// Why a solver could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SolverError {
+    /// The problem brings more other starts or simulators than a solve holds.
+    #[error("{problem} brings {count} {what}; a solver takes at most {MAX_OTHERS}")]
+    TooMany {
+        /// The problem's name.
+        problem: &'static str,
+        /// `"other starts"` or `"other simulators"`.
+        what: &'static str,
+        /// How many it brings.
+        count: usize,
+    },
     /// The problem ships no weights and none were given.
     #[error("{0} has no shipped weights: pass weights made by `train {0}`")]
     NoWeights(&'static str),
@@ -170,7 +185,12 @@ where
     problem: Arc<S>,
     learned: SolverStart<S, NX, NF, NP, NC, ND>,
     validator: S::Validator,
-    /// [`shipped_schedule`] over the learned start's ranked hypotheses.
+    /// [`DeclaredProblem::other_starts`], made once.
+    other_starts: Vec<OtherStart<NX, ND>>,
+    /// [`DeclaredProblem::other_simulators`], made once.
+    other_simulators: Vec<OtherSimulator<NX, NF, NP, ND>>,
+    /// [`shipped_schedule`] over the learned start's ranked hypotheses, then
+    /// [`other_attempts`].
     schedule: Vec<Attempt>,
 }
 
@@ -195,8 +215,16 @@ where
         let network = FoldedNetwork::from_bytes(weights)?;
         let learned = LearnedStart::with_rows(network, S::Data::LAYOUT, ProblemRows::new(problem.clone()))?;
         let validator = problem.validator(noise);
-        let schedule = ranked_schedule(shipped_schedule(S::REFINES), learned.hypotheses());
-        Ok(Self { problem, learned, validator, schedule })
+        let (other_starts, other_simulators) = (problem.other_starts(), problem.other_simulators());
+        for (what, count) in [("other starts", other_starts.len()), ("other simulators", other_simulators.len())] {
+            if count > MAX_OTHERS {
+                return Err(SolverError::TooMany { problem: S::NAME, what, count });
+            }
+        }
+        let hypotheses = learned.hypotheses();
+        let mut schedule = ranked_schedule(shipped_schedule(S::REFINES), hypotheses);
+        schedule.extend(other_attempts(hypotheses, other_starts.len(), other_simulators.len()));
+        Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule })
     }
 
     /// The problem.
@@ -216,7 +244,8 @@ where
 
     /// The attempts of [`Solver::solve`]: [`shipped_schedule`] over the learned start's ranked
     /// hypotheses ([`ranked_schedule`]; the providers are laid out as
-    /// [`super::hypotheses::provider`] says).
+    /// [`super::hypotheses::provider`] says), then the problem's other simulators and starts
+    /// ([`other_attempts`], at [`super::hypotheses::other_provider`]).
     pub fn schedule(&self) -> &[Attempt] {
         &self.schedule
     }
@@ -239,8 +268,9 @@ where
     }
 
     /// The pipeline's own result of a solve with these attempts over the providers of
-    /// [`super::hypotheses::provider`], `extra` in slot 2 (the bench's random start), with or
-    /// without the all-roots fallback: what the bench tallies.
+    /// [`super::hypotheses::provider`], `extra` in slot 2 (the bench's random start), the
+    /// problem's other starts at [`super::hypotheses::other_provider`], with or without the
+    /// all-roots fallback: what the bench tallies.
     pub fn run_pipeline(
         &self,
         p: &SVector<f64, ND>,
@@ -261,8 +291,8 @@ where
         let refined: [Refined<'_, S, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
             std::array::from_fn(|rank| Refined { inner: &ranked[rank], problem: &*self.problem });
         let none = NoStart;
-        let mut starts: [&dyn StartProvider<SVector<f64, ND>, NX>; provider_count(MAX_HYPOTHESES)] =
-            [&none; provider_count(MAX_HYPOTHESES)];
+        const SLOTS: usize = provider_count(MAX_HYPOTHESES) + MAX_OTHERS;
+        let mut starts: [&dyn StartProvider<SVector<f64, ND>, NX>; SLOTS] = [&none; SLOTS];
         for rank in 0..set.count() {
             starts[provider(rank, false)] = &ranked[rank];
             starts[provider(rank, true)] = &refined[rank];
@@ -270,10 +300,19 @@ where
         if let Some(extra) = extra {
             starts[2] = extra;
         }
-        let starts = &starts[..provider_count(set.count()).max(3)];
+        for (j, other) in self.other_starts.iter().enumerate() {
+            starts[other_provider(set.count(), j)] = &**other;
+        }
+        let starts = &starts[..other_provider(set.count(), self.other_starts.len())];
+        let mut others: [&dyn StartSimulator<SVector<f64, ND>, NX, NF, NP>; MAX_OTHERS] = [&simulator; MAX_OTHERS];
+        for (slot, other) in others.iter_mut().zip(&self.other_simulators) {
+            *slot = &**other;
+        }
+        let others = &others[..self.other_simulators.len()];
         let all_roots = self.problem.all_roots().filter(|r| fallback && r.has_start_system()).map(AllRootsFallback);
         let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, starts, &simulator, &self.validator)
             .with_schedule(schedule)
+            .with_other_simulators(others)
             .with_options(PipelineOptions { fallback, ..PipelineOptions::default() });
         if let Some(f) = &all_roots {
             pipeline = pipeline.with_fallback(f);

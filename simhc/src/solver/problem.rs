@@ -5,7 +5,7 @@
 //! `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same trait.
 
 use super::subsystem::AllRoots;
-use crate::pipeline::{InputRows, Validator};
+use crate::pipeline::{InputRows, StartProvider, StartSimulator, Validator};
 use crate::training::LearnedStartConfig;
 use crate::{CoefficientForm, InstanceSizes, OnlineSimulator, ParamDerivative, ProblemLayout};
 use nalgebra::SVector;
@@ -111,6 +111,26 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn scene_rows(&self, _rng: &mut ChaCha8Rng, _rows: usize, _noise: f64) -> Option<(Vec<f64>, Vec<f64>, SVector<f64, NX>)> {
         None
     }
+    /// More start providers, tried after every hypothesis of the learned start (before the
+    /// all-roots fallback): each with Gauss-Newton on the tracked rows, then one path with the
+    /// tracked instance's simulator, then one with each of [`DeclaredProblem::other_simulators`].
+    /// A closed-form or geometric start (a linear relaxation, the swapped views) that holds
+    /// where the learned start was not trained belongs here. A provider sees the data, and
+    /// returns unknowns, in the canonical frame when [`DeclaredProblem::canonicalize`] makes
+    /// one. Called once, when a [`super::Solver`] is built; at most [`super::MAX_OTHERS`].
+    /// Default: none.
+    fn other_starts(&self) -> Vec<OtherStart<NX, ND>> {
+        Vec::new()
+    }
+    /// More online simulators beside the tracked instance's own [`OnlineSimulator`] (for
+    /// example a geometric one that re-projects the scene): after the paths of the learned
+    /// hypotheses with the own simulator, one path from each hypothesis with each of these
+    /// ([`crate::pipeline::Method::OtherSimulatorHc`]`(k)` for the `k`-th). They see the data in
+    /// the canonical frame, as the starts do. Called once, when a [`super::Solver`] is built;
+    /// at most [`super::MAX_OTHERS`]. Default: none.
+    fn other_simulators(&self) -> Vec<OtherSimulator<NX, NF, NP, ND>> {
+        Vec::new()
+    }
     /// All roots of a square subsystem: the pipeline's fallback, the All-roots bench row and
     /// `monodromy` ([`super::SquareSubsystem`]).
     fn all_roots(&self) -> Option<&dyn AllRoots<NX, ND>> {
@@ -125,6 +145,13 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
         super::estimate::row_residual::<Self::Tracked, NX, NF, NP>(x, row, globals)
     }
 }
+
+/// A start provider of [`DeclaredProblem::other_starts`]: shared by the threads of a solver.
+pub type OtherStart<const NX: usize, const ND: usize> = Box<dyn StartProvider<SVector<f64, ND>, NX> + Send + Sync>;
+
+/// A simulator of [`DeclaredProblem::other_simulators`]: shared by the threads of a solver.
+pub type OtherSimulator<const NX: usize, const NF: usize, const NP: usize, const ND: usize> =
+    Box<dyn StartSimulator<SVector<f64, ND>, NX, NF, NP> + Send + Sync>;
 
 /// A map of the unknowns from one frame to another.
 pub type UnknownsMap<const NX: usize> = Box<dyn Fn(&SVector<f64, NX>) -> SVector<f64, NX>>;

@@ -74,6 +74,14 @@ struct TrainArgs {
     /// winner-takes-all training; the solver ranks them on the data and tracks them in order.
     #[arg(long, value_parser = clap::value_parser!(u8).range(1..=8))]
     hypotheses: Option<u8>,
+    /// Widths of the per-row layers, comma-separated, for example `64,128,128` (default: the
+    /// problem's training settings); each at most 256, the runtime's widest layer.
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u16).range(1..=256))]
+    point_widths: Option<Vec<u16>>,
+    /// Widths of the hidden layers after the pooling, comma-separated (default: the problem's
+    /// training settings); each at most 256.
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u16).range(1..=256))]
+    head_widths: Option<Vec<u16>>,
     /// The weights file to write (default: `<problem>.folded` here).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -214,14 +222,19 @@ where
         config.train.seed = a.seed;
         config.train.progress = true;
         config.hypotheses = a.hypotheses.map_or(config.hypotheses, usize::from);
+        let widths = |w: Vec<u16>| w.into_iter().map(usize::from).collect::<Vec<_>>();
+        config.point_widths = a.point_widths.map_or(config.point_widths, widths);
+        config.head_widths = a.head_widths.map_or(config.head_widths, widths);
         let out = a.out.unwrap_or_else(|| PathBuf::from(format!("{}.folded", S::NAME)));
         println!(
-            "train {}: {} scenes (noise {}), {} epochs, {} start hypotheses, seed {}",
+            "train {}: {} scenes (noise {}), {} epochs, {} start hypotheses, layers {:?} then {:?}, seed {}",
             S::NAME,
             config.samples,
             a.noise,
             config.train.epochs,
             config.hypotheses,
+            config.point_widths,
+            config.head_widths,
             a.seed
         );
         let rows = simhc::solver::ProblemRows::<S, NX, NF, NP, NC, ND>::new(self.problem.clone());

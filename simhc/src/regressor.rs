@@ -260,10 +260,13 @@ impl HypothesisBlocks {
     /// first) when scored, otherwise by `cost` (lower first; the caller's measure on the data,
     /// or a constant to keep the network's order). Stable: ties keep the network's order. The
     /// first [`HypothesisBlocks::count`] entries are the ranking; `N` must be at least `count`.
-    /// No heap allocation.
+    /// A single hypothesis is its own ranking: `cost` is not called. No heap allocation.
     pub fn ranked<const N: usize>(&self, out: &[f64], mut cost: impl FnMut(usize) -> f64) -> [usize; N] {
         assert!(self.count <= N, "{} hypotheses do not fit a ranking of {N}", self.count);
         let mut order: [usize; N] = std::array::from_fn(|k| k);
+        if self.count <= 1 {
+            return order;
+        }
         let mut key = [0.0f64; N];
         for (k, key) in key.iter_mut().enumerate().take(self.count) {
             *key = match self.score(out, k) {
@@ -561,6 +564,8 @@ mod tests {
         let costs = [2.0, f64::NAN, 1.0, 2.0];
         assert_eq!(&unscored.ranked::<8>(&out, |k| costs[k])[..4], &[2, 0, 3, 1]);
         assert_eq!(&unscored.ranked::<4>(&out, |_| 0.0), &[0, 1, 2, 3]);
+        let one = HypothesisBlocks::trained(1, 1);
+        assert_eq!(one.ranked::<8>(&out, |_| panic!("one hypothesis needs no cost"))[0], 0);
     }
 
     fn tiny() -> FoldedNetwork {

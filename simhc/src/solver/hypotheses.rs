@@ -133,7 +133,7 @@ where
             .map_err(|e| StartError { provider: "learned", reason: e.to_string() })?;
         let hypothesis = |k: usize| SVector::<f64, NX>::from_column_slice(&out[k * NX..(k + 1) * NX]);
         // An unscored network of several hypotheses: ranked by the data's residual.
-        let order = blocks.ranked::<MAX_HYPOTHESES>(&out, |k| if count > 1 { self.score(&hypothesis(k), p) } else { 0.0 });
+        let order = blocks.ranked::<MAX_HYPOTHESES>(&out, |k| self.score(&hypothesis(k), p));
         let mut ranked = Ranked { x: [SVector::zeros(); MAX_HYPOTHESES], count };
         for (x, &k) in ranked.x.iter_mut().zip(&order[..count]) {
             *x = hypothesis(k);

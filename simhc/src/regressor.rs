@@ -10,6 +10,15 @@
 //!               --(optional: divide by the Euclidean norm)-->            [K]
 //! ```
 //!
+//! With a *context stage* after the first `k` point layers ([`FoldedNetwork::context_after`]),
+//! every row also sees the whole set: the rows' features after layer `k` are max-pooled to `g`,
+//! and point layer `k + 1` reads `[h_i, g]` (twice the width) instead of `h_i` (PointNet's
+//! segmentation network). Independent rows pooled once cannot compare one correspondence with
+//! another; a pose is a function of exactly such comparisons. The forward pass stays
+//! allocation-free for any number of rows: it runs the first `k` layers twice (once to pool
+//! `g`, once per row again) instead of keeping every row's features, and folds `g`'s half of
+//! layer `k + 1` into that layer's bias, since `g` is the same for every row.
+//!
 //! The point layers are the paper's 1D convolutions with kernel size 1, each followed by batch
 //! norm and ReLU; here the batch norm (in inference mode, running statistics) is folded into the
 //! preceding dense layer: `W' = W diag(s)`, `b' = (b - mean) s + beta` with
@@ -24,7 +33,10 @@
 //! input_width  u32      C, the width of one input row
 //! point_layers u32      number of point layers (>= 1)
 //! head_layers  u32      number of head layers (>= 1)
-//! flags        u32      bit 0: normalize the output to unit Euclidean norm; other bits 0
+//! flags        u32      bit 0: normalize the output to unit Euclidean norm;
+//!                       bit 1: a context stage follows; other bits 0
+//! context      u32      only with flag bit 1: k, the point layers before the context stage
+//!                       (1 <= k < point_layers)
 //! then for every layer, point layers first, then head layers:
 //!   inputs     u32
 //!   outputs    u32
@@ -33,7 +45,8 @@
 //! ```
 //!
 //! Each layer's `inputs` must equal the previous layer's `outputs` (the first point layer's the
-//! input width, the first head layer's the last point layer's), every width is at most
+//! input width, the first head layer's the last point layer's; point layer `k + 1` of a
+//! context stage reads twice its previous layer's outputs), every width is at most
 //! [`MAX_WIDTH`], and nothing may follow the last layer.
 //!
 //! # Input rows
@@ -164,12 +177,25 @@ impl DenseLayer {
     /// `TILE` outputs x `ROW_BLOCK` rows so that every weight is loaded once per block.
     #[inline(always)]
     fn apply_block<const TILE: usize, const FMA: bool>(&self, x: &[[f32; MAX_WIDTH]; ROW_BLOCK], y: &mut [[f32; MAX_WIDTH]; ROW_BLOCK]) {
-        let (n_in, o) = (self.inputs, self.outputs);
+        self.apply_block_part::<TILE, FMA>(self.inputs, &self.bias, x, y);
+    }
+
+    /// [`DenseLayer::apply_block`] on the first `n_in` inputs only, with bias `bias`: a context
+    /// layer's row half, its pooled half folded into `bias`.
+    #[inline(always)]
+    fn apply_block_part<const TILE: usize, const FMA: bool>(
+        &self,
+        n_in: usize,
+        bias: &[f32],
+        x: &[[f32; MAX_WIDTH]; ROW_BLOCK],
+        y: &mut [[f32; MAX_WIDTH]; ROW_BLOCK],
+    ) {
+        let o = self.outputs;
         let tiled = o - o % TILE;
         for j0 in (0..tiled).step_by(TILE) {
-            let mut bias = [0.0f32; TILE];
-            bias.copy_from_slice(&self.bias[j0..j0 + TILE]);
-            let mut acc = [bias; ROW_BLOCK];
+            let mut bias_tile = [0.0f32; TILE];
+            bias_tile.copy_from_slice(&bias[j0..j0 + TILE]);
+            let mut acc = [bias_tile; ROW_BLOCK];
             for i in 0..n_in {
                 let mut w = [0.0f32; TILE];
                 w.copy_from_slice(&self.weights[i * o + j0..i * o + j0 + TILE]);
@@ -189,7 +215,7 @@ impl DenseLayer {
         if tiled < o {
             for r in 0..ROW_BLOCK {
                 for j in tiled..o {
-                    let mut s = self.bias[j];
+                    let mut s = bias[j];
                     for i in 0..n_in {
                         s = madd::<FMA>(x[r][i], self.weights[i * o + j], s);
                     }
@@ -295,6 +321,8 @@ pub struct FoldedNetwork {
     point_layers: Vec<DenseLayer>,
     head_layers: Vec<DenseLayer>,
     normalize_output: bool,
+    /// Point layers before the context stage; 0: none (module docs).
+    context_after: usize,
 }
 
 impl FoldedNetwork {
@@ -305,20 +333,37 @@ impl FoldedNetwork {
         head_layers: Vec<DenseLayer>,
         normalize_output: bool,
     ) -> Result<Self, RegressorError> {
+        Self::with_context(input_width, point_layers, head_layers, normalize_output, 0)
+    }
+
+    /// A network whose context stage follows point layer `context_after` (module docs; 0:
+    /// none, as [`FoldedNetwork::new`]): point layer `context_after + 1` reads twice the
+    /// width of its previous layer. Checks that the widths chain.
+    pub fn with_context(
+        input_width: usize,
+        point_layers: Vec<DenseLayer>,
+        head_layers: Vec<DenseLayer>,
+        normalize_output: bool,
+        context_after: usize,
+    ) -> Result<Self, RegressorError> {
         if input_width == 0 || input_width > MAX_WIDTH {
             return Err(RegressorError::Format("input width zero or above MAX_WIDTH"));
         }
         if point_layers.is_empty() || head_layers.is_empty() {
             return Err(RegressorError::Format("need at least one point and one head layer"));
         }
+        if context_after >= point_layers.len() {
+            return Err(RegressorError::Format("the context stage must follow a point layer and precede another"));
+        }
         let mut width = input_width;
-        for layer in point_layers.iter().chain(&head_layers) {
-            if layer.inputs != width {
+        for (k, layer) in point_layers.iter().chain(&head_layers).enumerate() {
+            let expected = if context_after > 0 && k == context_after { 2 * width } else { width };
+            if layer.inputs != expected {
                 return Err(RegressorError::Format("layer widths do not chain"));
             }
             width = layer.outputs;
         }
-        Ok(Self { input_width, point_layers, head_layers, normalize_output })
+        Ok(Self { input_width, point_layers, head_layers, normalize_output, context_after })
     }
 
     /// Parses the binary format of the module docs (for example an `include_bytes!` of a
@@ -332,8 +377,12 @@ impl FoldedNetwork {
         let n_point = reader.u32()?;
         let n_head = reader.u32()?;
         let flags = reader.u32()?;
-        if flags & !1 != 0 {
+        if flags & !3 != 0 {
             return Err(RegressorError::Format("unknown flags"));
+        }
+        let context_after = if flags & 2 != 0 { reader.u32()? } else { 0 };
+        if flags & 2 != 0 && context_after == 0 {
+            return Err(RegressorError::Format("a context stage after no point layer"));
         }
         if n_point == 0 || n_head == 0 || n_point + n_head > 64 {
             return Err(RegressorError::Format("bad layer count"));
@@ -353,15 +402,19 @@ impl FoldedNetwork {
             return Err(RegressorError::Format("trailing bytes"));
         }
         let head_layers = layers.split_off(n_point);
-        Self::new(input_width, layers, head_layers, flags & 1 == 1)
+        Self::with_context(input_width, layers, head_layers, flags & 1 == 1, context_after)
     }
 
     /// Serializes to the binary format of the module docs.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut out = Vec::new();
         out.extend_from_slice(FOLDED_MAGIC);
-        for v in [self.input_width, self.point_layers.len(), self.head_layers.len(), usize::from(self.normalize_output)] {
+        let flags = usize::from(self.normalize_output) | if self.context_after > 0 { 2 } else { 0 };
+        for v in [self.input_width, self.point_layers.len(), self.head_layers.len(), flags] {
             out.extend_from_slice(&(v as u32).to_le_bytes());
+        }
+        if self.context_after > 0 {
+            out.extend_from_slice(&(self.context_after as u32).to_le_bytes());
         }
         for layer in self.point_layers.iter().chain(&self.head_layers) {
             out.extend_from_slice(&(layer.inputs as u32).to_le_bytes());
@@ -388,6 +441,11 @@ impl FoldedNetwork {
         self.normalize_output
     }
 
+    /// Point layers before the context stage (module docs); 0: no context stage.
+    pub fn context_after(&self) -> usize {
+        self.context_after
+    }
+
     /// The point layers (batch norm folded in; each followed by ReLU).
     pub fn point_layers(&self) -> &[DenseLayer] {
         &self.point_layers
@@ -407,7 +465,7 @@ impl FoldedNetwork {
     /// a `&[[f32; C]]` is passed as `rows.as_flattened()`) and writes the `output_width()`
     /// outputs to `out`.
     ///
-    /// No heap allocation: activations live in stack buffers of [`MAX_WIDTH`] floats (9 KiB
+    /// No heap allocation: activations live in stack buffers of [`MAX_WIDTH`] floats (14 KiB
     /// of stack). The rows are processed in blocks of four; a last partial block is padded by
     /// repeating its last row, which the max-pool ignores. Arithmetic is in `f32` (fused
     /// multiply-add with 256-bit vectors when the CPU has AVX2 and FMA, detected at run time;
@@ -434,34 +492,31 @@ impl FoldedNetwork {
     /// the output width); `TILE` outputs per register tile, `FMA` fused multiply-add.
     #[inline(always)]
     fn forward_impl<const TILE: usize, const FMA: bool>(&self, rows: &[f32], out: &mut [f64]) {
-        let c = self.input_width;
-        let n = rows.len() / c;
+        let k = self.context_after;
         let width = self.point_layers.last().map_or(0, |l| l.outputs);
         let mut pooled = [f32::NEG_INFINITY; MAX_WIDTH];
-        let mut a = [[0.0f32; MAX_WIDTH]; ROW_BLOCK];
-        let mut b = [[0.0f32; MAX_WIDTH]; ROW_BLOCK];
-        for start in (0..n).step_by(ROW_BLOCK) {
-            for r in 0..ROW_BLOCK {
-                let row = (start + r).min(n - 1);
-                a[r][..c].copy_from_slice(&rows[row * c..(row + 1) * c]);
-            }
-            let mut in_a = true;
-            for layer in &self.point_layers {
-                if in_a {
-                    layer.apply_block::<TILE, FMA>(&a, &mut b);
-                } else {
-                    layer.apply_block::<TILE, FMA>(&b, &mut a);
-                }
-                in_a = !in_a;
-            }
-            let result = if in_a { &a } else { &b };
-            for row in result {
-                for (p, v) in pooled[..width].iter_mut().zip(&row[..width]) {
-                    *p = p.max(*v);
+        if k == 0 {
+            self.pool_rows::<TILE, FMA>(rows, &self.point_layers, None, &mut pooled);
+        } else {
+            // The context: the first k layers pooled over the rows.
+            let (first, rest) = self.point_layers.split_at(k);
+            let mut context = [f32::NEG_INFINITY; MAX_WIDTH];
+            self.pool_rows::<TILE, FMA>(rows, first, None, &mut context);
+            // Layer k + 1 reads [h_i, g]: g's half of its weights is the same for every row,
+            // so it joins the bias.
+            let layer = &rest[0];
+            let (half, o) = (layer.inputs / 2, layer.outputs);
+            let mut bias = [0.0f32; MAX_WIDTH];
+            bias[..o].copy_from_slice(&layer.bias);
+            for (g, w) in context[..half].iter().zip(layer.weights[half * o..].chunks_exact(o)) {
+                for (b, wj) in bias[..o].iter_mut().zip(w) {
+                    *b = madd::<FMA>(*g, *wj, *b);
                 }
             }
+            self.pool_rows::<TILE, FMA>(rows, &self.point_layers, Some((k, &bias[..o])), &mut pooled);
         }
-        let (x, y) = (&mut a[0], &mut b[0]);
+        let mut x = [0.0f32; MAX_WIDTH];
+        let mut y = [0.0f32; MAX_WIDTH];
         x[..width].copy_from_slice(&pooled[..width]);
         let last = self.head_layers.len() - 1;
         let mut in_x = true;
@@ -482,6 +537,46 @@ impl FoldedNetwork {
             let norm = norm.max(1e-12);
             for o in out.iter_mut() {
                 *o /= norm;
+            }
+        }
+    }
+
+    /// Runs `layers` on every row of `rows` (blocks of [`ROW_BLOCK`]) and max-pools their
+    /// last outputs into `pooled`. With `context = Some((k, bias))`, layer `k` reads only its
+    /// row half, with `bias` (the context folded in). A last partial block repeats its last
+    /// row, which the max-pool ignores.
+    #[inline(always)]
+    fn pool_rows<const TILE: usize, const FMA: bool>(
+        &self,
+        rows: &[f32],
+        layers: &[DenseLayer],
+        context: Option<(usize, &[f32])>,
+        pooled: &mut [f32; MAX_WIDTH],
+    ) {
+        let c = self.input_width;
+        let n = rows.len() / c;
+        let width = layers.last().map_or(0, |l| l.outputs);
+        let mut a = [[0.0f32; MAX_WIDTH]; ROW_BLOCK];
+        let mut b = [[0.0f32; MAX_WIDTH]; ROW_BLOCK];
+        for start in (0..n).step_by(ROW_BLOCK) {
+            for r in 0..ROW_BLOCK {
+                let row = (start + r).min(n - 1);
+                a[r][..c].copy_from_slice(&rows[row * c..(row + 1) * c]);
+            }
+            let mut in_a = true;
+            for (j, layer) in layers.iter().enumerate() {
+                let (from, to) = if in_a { (&a, &mut b) } else { (&b, &mut a) };
+                match context {
+                    Some((k, bias)) if j == k => layer.apply_block_part::<TILE, FMA>(layer.inputs / 2, bias, from, to),
+                    _ => layer.apply_block::<TILE, FMA>(from, to),
+                }
+                in_a = !in_a;
+            }
+            let result = if in_a { &a } else { &b };
+            for row in result {
+                for (p, v) in pooled[..width].iter_mut().zip(&row[..width]) {
+                    *p = p.max(*v);
+                }
             }
         }
     }
@@ -576,25 +671,33 @@ mod tests {
     }
 
     /// Reference forward pass written in the most direct way.
+    /// A context stage keeps every row's features and concatenates the pooled ones.
     fn reference(net: &FoldedNetwork, rows: &[f32]) -> Vec<f64> {
-        let c = net.input_width();
-        let mut pooled: Option<Vec<f32>> = None;
-        for row in rows.chunks_exact(c) {
-            let mut x = row.to_vec();
-            for l in net.point_layers() {
-                x = (0..l.outputs())
-                    .map(|j| {
-                        let s: f32 = (0..l.inputs()).map(|i| x[i] * l.weights()[i * l.outputs() + j]).sum();
-                        (s + l.bias()[j]).max(0.0)
-                    })
-                    .collect();
+        let dense_relu = |l: &DenseLayer, x: &[f32]| -> Vec<f32> {
+            (0..l.outputs())
+                .map(|j| {
+                    let s: f32 = (0..l.inputs()).map(|i| x[i] * l.weights()[i * l.outputs() + j]).sum();
+                    (s + l.bias()[j]).max(0.0)
+                })
+                .collect()
+        };
+        let max_pool = |xs: &[Vec<f32>]| -> Vec<f32> {
+            let mut p = xs[0].clone();
+            for x in xs {
+                p.iter_mut().zip(x).for_each(|(a, b)| *a = a.max(*b));
             }
-            pooled = Some(match pooled {
-                None => x,
-                Some(p) => p.iter().zip(&x).map(|(a, b)| a.max(*b)).collect(),
-            });
+            p
+        };
+        let c = net.input_width();
+        let mut features: Vec<Vec<f32>> = rows.chunks_exact(c).map(<[f32]>::to_vec).collect();
+        for (k, l) in net.point_layers().iter().enumerate() {
+            if net.context_after() > 0 && k == net.context_after() {
+                let g = max_pool(&features);
+                features.iter_mut().for_each(|x| x.extend_from_slice(&g));
+            }
+            features = features.iter().map(|x| dense_relu(l, x)).collect();
         }
-        let mut x = pooled.unwrap();
+        let mut x = max_pool(&features);
         let last = net.head_layers().len() - 1;
         for (k, l) in net.head_layers().iter().enumerate() {
             x = (0..l.outputs())
@@ -659,6 +762,41 @@ mod tests {
         }
         let back = FoldedNetwork::from_bytes(&net.to_bytes()).unwrap();
         assert_eq!(back, net);
+    }
+
+    #[test]
+    fn context_stage_matches_reference_for_any_row_count() {
+        let mut state = 777u64;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 33) as f32 / (1u64 << 31) as f32) - 0.5
+        };
+        let mut layer =
+            |i: usize, o: usize| DenseLayer::new(i, o, (0..i * o).map(|_| rnd()).collect(), (0..o).map(|_| rnd()).collect()).unwrap();
+        // 3 -> 17 -> 21 | context: [21 + 21] -> 19 -> 23 | head 23 -> 5
+        let point = vec![layer(3, 17), layer(17, 21), layer(42, 19), layer(19, 23)];
+        let head = vec![layer(23, 5)];
+        assert!(FoldedNetwork::new(3, point.clone(), head.clone(), false).is_err(), "widths chain only with the context");
+        assert!(FoldedNetwork::with_context(3, point.clone(), head.clone(), false, 1).is_err(), "the context after the wrong layer");
+        assert!(FoldedNetwork::with_context(3, point.clone(), head.clone(), false, 4).is_err(), "a context after the last layer");
+        let net = FoldedNetwork::with_context(3, point, head, false, 2).unwrap();
+        assert_eq!(net.context_after(), 2);
+        for n in [1, 2, 5, 8, 13] {
+            let rows: Vec<f32> = (0..3 * n).map(|i| 3.0 * ((i * 7919 % 113) as f32 / 113.0 - 0.5)).collect();
+            let (mut fast, mut portable) = ([0.0; 5], [0.0; 5]);
+            net.forward(&rows, &mut fast).unwrap();
+            net.forward_impl::<8, false>(&rows, &mut portable);
+            let want = reference(&net, &rows);
+            for ((a, p), b) in fast.iter().zip(&portable).zip(&want) {
+                assert!((a - b).abs() < 1e-4 * (1.0 + b.abs()), "n={n}: {fast:?} vs {want:?}");
+                assert!((p - b).abs() < 1e-4 * (1.0 + b.abs()), "n={n}: portable {portable:?} vs {want:?}");
+            }
+        }
+        let back = FoldedNetwork::from_bytes(&net.to_bytes()).unwrap();
+        assert_eq!(back, net);
+        let mut bad = net.to_bytes();
+        bad[24..28].copy_from_slice(&0u32.to_le_bytes());
+        assert!(matches!(FoldedNetwork::from_bytes(&bad), Err(RegressorError::Format(_))), "a context after no layer");
     }
 
     #[test]

@@ -33,6 +33,9 @@ pub struct LearnedStartConfig {
     pub point_widths: Vec<usize>,
     /// Widths of the hidden head layers.
     pub head_widths: Vec<usize>,
+    /// Point layers before the context stage (every row then also reads the max-pooled
+    /// features of all rows; `simhc::regressor::FoldedNetwork::with_context`); 0: none.
+    pub context_after: usize,
     /// Training scenes.
     pub samples: usize,
     /// Start hypotheses per prediction (winner-takes-all training; the solver ranks them on
@@ -49,6 +52,7 @@ impl Default for LearnedStartConfig {
         Self {
             point_widths: vec![64, 128, 128],
             head_widths: vec![128],
+            context_after: 0,
             samples: 50_000,
             hypotheses: 1,
             relax: 0.05,

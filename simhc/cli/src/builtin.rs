@@ -72,6 +72,11 @@ mod train {
         /// weights).
         #[arg(long, value_parser = clap::value_parser!(u8).range(1..=8))]
         hypotheses: Option<u8>,
+        /// GRPS: a context stage after this many of the 4 per-row layers, 1 to 3 (every later
+        /// per-row layer also reads the max-pooled features of all rows; default: that of the
+        /// shipped weights).
+        #[arg(long, value_parser = clap::value_parser!(u8).range(1..=3))]
+        context_after: Option<u8>,
     }
 
     impl TrainArgs {
@@ -98,6 +103,9 @@ mod train {
             // One path from the single prediction already validates 99.9 % of UPnP trials.
             return Err("upnp trains one start hypothesis: drop --hypotheses".to_string());
         }
+        if a.context_after.is_some() {
+            return Err("upnp trains its shipped architecture: drop --context-after".to_string());
+        }
         let mut config = simhc_regressor::upnp::UpnpTrainConfig::default();
         a.apply(&mut config.train, &mut config.train_samples);
         simhc_regressor::upnp::train_and_write(&a.out(), &config).map_err(|e| e.to_string())
@@ -109,7 +117,10 @@ mod train {
         a.apply(&mut config.train, &mut config.train_samples);
         if let Some(k) = a.hypotheses {
             config.hypotheses = k.into();
-            config.model = simhc_regressor::grps::grps_model(config.hypotheses);
+            config.model = simhc_regressor::grps::grps_model(config.hypotheses).with_context_after(config.model.context_after);
+        }
+        if let Some(k) = a.context_after {
+            config.model = config.model.with_context_after(k.into());
         }
         simhc_regressor::grps::train_and_write(&a.out(), &config).map_err(|e| e.to_string())
     }

@@ -82,6 +82,12 @@ struct TrainArgs {
     /// training settings); each at most 256.
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u16).range(1..=256))]
     head_widths: Option<Vec<u16>>,
+    /// A context stage after this many per-row layers: every later per-row layer also reads
+    /// the max-pooled features of all rows, so one correspondence can be compared with the
+    /// others (0: none; default: the problem's training settings). Less than the number of
+    /// per-row layers.
+    #[arg(long)]
+    context_after: Option<usize>,
     /// The weights file to write (default: `<problem>.folded` here).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -225,15 +231,25 @@ where
         let widths = |w: Vec<u16>| w.into_iter().map(usize::from).collect::<Vec<_>>();
         config.point_widths = a.point_widths.map_or(config.point_widths, widths);
         config.head_widths = a.head_widths.map_or(config.head_widths, widths);
+        config.context_after = a.context_after.unwrap_or(config.context_after);
+        if config.context_after >= config.point_widths.len() {
+            return Err(format!(
+                "--context-after {}: the context stage must follow one of the {} per-row layers and precede another (0 to {})",
+                config.context_after,
+                config.point_widths.len(),
+                config.point_widths.len() - 1
+            ));
+        }
         let out = a.out.unwrap_or_else(|| PathBuf::from(format!("{}.folded", S::NAME)));
         println!(
-            "train {}: {} scenes (noise {}), {} epochs, {} start hypotheses, layers {:?} then {:?}, seed {}",
+            "train {}: {} scenes (noise {}), {} epochs, {} start hypotheses, layers {:?} (context after {}) then {:?}, seed {}",
             S::NAME,
             config.samples,
             a.noise,
             config.train.epochs,
             config.hypotheses,
             config.point_widths,
+            config.context_after,
             config.head_widths,
             a.seed
         );

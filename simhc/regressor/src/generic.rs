@@ -312,6 +312,7 @@ impl<'a, R: InputRows> LayoutFeatures<'a, R> {
         RegressorConfig::new(self.rows.shape().1, config.point_widths.clone(), config.head_widths.clone())
             .with_outputs(HypothesisBlocks::trained(self.layout.unknown_len(), config.hypotheses).outputs())
             .with_normalize_output(false)
+            .with_context_after(config.context_after)
     }
 }
 
@@ -469,7 +470,7 @@ fn fold_standardizations(net: &FoldedNetwork, input: &Standardization, output: &
     }
     let n = head.len();
     head[n - 1] = DenseLayer::new(ni, no, w.iter().map(|v| *v as f32).collect(), b.iter().map(|v| *v as f32).collect())?;
-    FoldedNetwork::new(net.input_width(), point, head, false)
+    FoldedNetwork::with_context(net.input_width(), point, head, false, net.context_after())
 }
 
 #[cfg(test)]

@@ -86,7 +86,7 @@ pub fn fold(model: &PoseRegressor) -> Result<FoldedNetwork, RegressorError> {
         let (i, o, w, b) = dense(layer);
         head.push(DenseLayer::new(i, o, w, b)?);
     }
-    FoldedNetwork::new(input_width, point, head, model.normalize_output)
+    FoldedNetwork::with_context(input_width, point, head, model.normalize_output, model.context_after)
 }
 
 /// [`fold`] serialized in the runtime's binary format (`problems/weights/upnp.folded`).

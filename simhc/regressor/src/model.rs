@@ -9,6 +9,12 @@
 //!   -> divide by the Euclidean norm           unit quaternion [w, x, y, z]
 //! ```
 //!
+//! With `context_after = k > 0`, the features after point layer `k` are max-pooled over the N
+//! rows and concatenated to every row (`[h_i, g]`) before layer `k + 1` (PointNet's
+//! segmentation network): each row's later features can then depend on the others, which a
+//! pose, a function of comparisons between correspondences, needs
+//! (`simhc::regressor::FoldedNetwork::with_context` runs it at inference).
+//!
 //! A 1D convolution with kernel size 1 over the N correspondences is exactly a dense layer
 //! applied to every row, so it is written as [`Linear`] on the `[B*N, C]` reshape (faster on the
 //! flex backend, same function); batch norm then normalizes each channel over all `B*N` rows,
@@ -32,6 +38,9 @@ pub struct RegressorConfig {
     /// Divide the output by its norm (unit quaternion).
     #[config(default = true)]
     pub normalize_output: bool,
+    /// Point layers before the context stage (module docs); 0: none.
+    #[config(default = 0)]
+    pub context_after: usize,
 }
 
 impl RegressorConfig {
@@ -43,10 +52,14 @@ impl RegressorConfig {
     /// Builds the network with freshly initialized parameters on `device`.
     pub fn init(&self, device: &Device) -> PoseRegressor {
         assert!(!self.point_widths.is_empty(), "need at least one point layer");
+        assert!(self.context_after < self.point_widths.len(), "the context stage must precede a point layer");
         let mut width = self.input_width;
         let mut point_layers = Vec::new();
         let mut point_norms = Vec::new();
-        for &w in &self.point_widths {
+        for (k, &w) in self.point_widths.iter().enumerate() {
+            if self.context_after > 0 && k == self.context_after {
+                width *= 2;
+            }
             point_layers.push(LinearConfig::new(width, w).init(device));
             point_norms.push(BatchNormConfig::new(w).init(device));
             width = w;
@@ -56,7 +69,14 @@ impl RegressorConfig {
             head_layers.push(LinearConfig::new(width, w).init(device));
             width = w;
         }
-        PoseRegressor { point_layers, point_norms, head_layers, activation: Relu::new(), normalize_output: self.normalize_output }
+        PoseRegressor {
+            point_layers,
+            point_norms,
+            head_layers,
+            activation: Relu::new(),
+            normalize_output: self.normalize_output,
+            context_after: self.context_after,
+        }
     }
 }
 
@@ -73,6 +93,8 @@ pub struct PoseRegressor {
     pub activation: Relu,
     /// Divide the output by its norm.
     pub normalize_output: bool,
+    /// Point layers before the context stage; 0: none.
+    pub context_after: usize,
 }
 
 impl PoseRegressor {
@@ -80,7 +102,13 @@ impl PoseRegressor {
     pub fn forward(&self, x: Tensor<3>) -> Tensor<2> {
         let [b, n, c] = x.dims();
         let mut h = x.reshape([b * n, c]);
-        for (layer, norm) in self.point_layers.iter().zip(&self.point_norms) {
+        for (k, (layer, norm)) in self.point_layers.iter().zip(&self.point_norms).enumerate() {
+            if self.context_after > 0 && k == self.context_after {
+                let [_, w] = h.dims();
+                let rows = h.reshape([b, n, w]);
+                let pooled = rows.clone().max_dim(1).repeat_dim(1, n);
+                h = Tensor::cat(vec![rows, pooled], 2).reshape([b * n, 2 * w]);
+            }
             h = self.activation.forward(norm.forward(layer.forward(h)));
         }
         let [_, w] = h.dims();

@@ -24,12 +24,16 @@ fn tiny_config() -> RegressorConfig {
 }
 
 fn tiny_train(seed: u64, epochs: usize) -> (PoseRegressor, Vec<f64>) {
+    tiny_train_config(&tiny_config(), seed, epochs)
+}
+
+fn tiny_train_config(model: &RegressorConfig, seed: u64, epochs: usize) -> (PoseRegressor, Vec<f64>) {
     let _guard = SEEDED.lock().unwrap_or_else(|e| e.into_inner());
     let scenes = UpnpSceneConfig::default();
     let data = training_dataset(&scenes, 512, seed).unwrap();
     let valid = validation_dataset(&scenes, 64, 5_000_000).unwrap();
     let config = TrainConfig { epochs, batch_size: 32, learning_rate: 3e-3, final_learning_rate: 1e-3, seed, progress: false };
-    let (model, report) = train(&tiny_config(), &data, &valid, &config);
+    let (model, report) = train(model, &data, &valid, &config);
     assert_eq!(report.steps, epochs * 16);
     assert_eq!(report.valid.count, 64);
     (model, report.epoch_losses)
@@ -78,6 +82,18 @@ fn folded_network_equals_burn_on_a_trained_tiny_model() {
     assert_eq!(folded.input_width(), 9);
     assert_eq!(folded.output_width(), 4);
     assert_folded_matches_burn(&model, &folded, 1);
+}
+
+/// A network with a context stage (the pooled features of layer 2 concatenated to every row
+/// before layer 3) folds to a runtime network that computes what burn computes.
+#[test]
+fn folded_network_with_a_context_stage_equals_burn() {
+    let (model, losses) = tiny_train_config(&tiny_config().with_context_after(2), 13, 2);
+    assert!(losses.iter().all(|l| l.is_finite()), "{losses:?}");
+    let folded = FoldedNetwork::from_bytes(&export_folded(&model)).unwrap();
+    assert_eq!(folded.context_after(), 2);
+    assert_eq!(folded.point_layers()[2].inputs(), 2 * 16, "layer 3 reads the rows and their pooled features");
+    assert_folded_matches_burn(&model, &folded, 3);
 }
 
 #[test]

@@ -134,6 +134,28 @@ fn a_learned_start_predicts_without_allocating() {
     assert!((x[..4].iter().map(|v| v * v).sum::<f64>() - 1.0).abs() < 1e-12, "{x:?}");
 }
 
+/// A network with a context stage (the pooled features of the first point layer concatenated to
+/// every row before the second) predicts without allocating, for any number of rows.
+#[test]
+fn a_learned_start_with_a_context_stage_predicts_without_allocating() {
+    use simhc::pipeline::LearnedStart;
+    use simhc::regressor::{DenseLayer, FoldedNetwork};
+    for rows in [1, 5, 37] {
+        let layout = quat_and_vector_layout(rows);
+        let first = DenseLayer::new(3, 8, (0..24).map(|i| (i as f32 * 0.37).sin()).collect(), vec![0.1; 8]).unwrap();
+        let second = DenseLayer::new(16, 6, (0..96).map(|i| (i as f32 * 0.23).cos()).collect(), vec![0.0; 6]).unwrap();
+        let head = DenseLayer::new(6, 7, (0..42).map(|i| (i as f32 * 0.11).cos()).collect(), vec![0.2; 7]).unwrap();
+        let network = FoldedNetwork::with_context(3, vec![first, second], vec![head], false, 1).unwrap();
+        let start = LearnedStart::new(network, layout).unwrap();
+        let p: Vec<f64> = (0..3 * rows).map(|i| (i as f64 * 0.7).sin()).collect();
+        let mut x = [0.0; 7];
+        let (result, allocations) = counted(|| start.predict(&p, &mut x));
+        result.expect("a prediction");
+        assert_eq!(allocations, 0, "{rows} rows");
+        assert!(x.iter().all(|v| v.is_finite()), "{x:?}");
+    }
+}
+
 /// A network of two scored hypotheses: `predict` returns the better-scored one, normalized,
 /// without allocating; outputs that are not blocks of the unknowns are refused.
 #[test]

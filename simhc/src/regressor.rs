@@ -730,23 +730,26 @@ mod tests {
         assert!((out[0] - 3.2).abs() < 1e-6 && (out[1] - 0.3).abs() < 1e-6, "{out:?}");
     }
 
+    /// Seeded numbers in [-0.5, 0.5) (a linear congruential generator: no dependency).
+    fn uniform(seed: u64) -> impl FnMut() -> f32 {
+        let mut state = seed;
+        move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 33) as f32 / (1u64 << 31) as f32) - 0.5
+        }
+    }
+
+    /// A layer of `i` inputs and `o` outputs with weights and biases from `rnd`.
+    fn random_layer(rnd: &mut impl FnMut() -> f32, i: usize, o: usize) -> DenseLayer {
+        DenseLayer::new(i, o, (0..i * o).map(|_| rnd()).collect(), (0..o).map(|_| rnd()).collect()).unwrap()
+    }
+
     #[test]
     fn blocked_kernel_matches_reference_for_odd_sizes() {
         // widths not multiples of the tile, row counts not multiples of the block
-        let mut state = 12345u64;
-        let mut rnd = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 33) as f32 / (1u64 << 31) as f32) - 0.5
-        };
-        let dims = [(5, 19), (19, 24), (24, 37)];
-        let point: Vec<DenseLayer> = dims
-            .iter()
-            .map(|&(i, o)| DenseLayer::new(i, o, (0..i * o).map(|_| rnd()).collect(), (0..o).map(|_| rnd()).collect()).unwrap())
-            .collect();
-        let head = vec![
-            DenseLayer::new(37, 11, (0..37 * 11).map(|_| rnd()).collect(), (0..11).map(|_| rnd()).collect()).unwrap(),
-            DenseLayer::new(11, 4, (0..44).map(|_| rnd()).collect(), (0..4).map(|_| rnd()).collect()).unwrap(),
-        ];
+        let mut rnd = uniform(12345);
+        let point: Vec<DenseLayer> = [(5, 19), (19, 24), (24, 37)].iter().map(|&(i, o)| random_layer(&mut rnd, i, o)).collect();
+        let head = vec![random_layer(&mut rnd, 37, 11), random_layer(&mut rnd, 11, 4)];
         let net = FoldedNetwork::new(5, point, head, true).unwrap();
         for n in [1, 3, 4, 7, 16] {
             let rows: Vec<f32> = (0..5 * n).map(|_| 4.0 * rnd()).collect();
@@ -766,13 +769,8 @@ mod tests {
 
     #[test]
     fn context_stage_matches_reference_for_any_row_count() {
-        let mut state = 777u64;
-        let mut rnd = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((state >> 33) as f32 / (1u64 << 31) as f32) - 0.5
-        };
-        let mut layer =
-            |i: usize, o: usize| DenseLayer::new(i, o, (0..i * o).map(|_| rnd()).collect(), (0..o).map(|_| rnd()).collect()).unwrap();
+        let mut rnd = uniform(777);
+        let mut layer = |i: usize, o: usize| random_layer(&mut rnd, i, o);
         // 3 -> 17 -> 21 | context: [21 + 21] -> 19 -> 23 | head 23 -> 5
         let point = vec![layer(3, 17), layer(17, 21), layer(42, 19), layer(19, 23)];
         let head = vec![layer(23, 5)];

@@ -9,6 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use simhc::all_roots::AllRootsOptions;
 use simhc::ransac::{ransac, RansacOptions};
+use simhc::regressor::FoldedNetwork;
 use simhc_problems::grps::ransac::GrpsEstimator;
 use simhc_problems::grps::refine::{lm_polynomial, refine_pose, LmOptions};
 use simhc_problems::grps::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
@@ -70,9 +71,26 @@ pub struct GrpsArgs {
     /// bench grps: solver attempts per RANSAC sample.
     #[arg(long, default_value_t = 8)]
     pub ransac_attempts: usize,
+    /// bench grps: the regressor's weights, a `.folded` file written by `simhc train grps`
+    /// (default: the shipped ones), to compare a training run with the shipped weights on the
+    /// same trials.
+    #[arg(long)]
+    pub weights: Option<PathBuf>,
 }
 
 impl GrpsArgs {
+    /// A solver with `options` and the regressor of `--weights` (the shipped one without).
+    fn solver(&self, options: GrpsSolverOptions) -> Result<GrpsSolver, String> {
+        match &self.weights {
+            None => solver(options),
+            Some(path) => {
+                let bytes = std::fs::read(path).map_err(|e| format!("--weights {}: {e}", path.display()))?;
+                let network = FoldedNetwork::from_bytes(&bytes).map_err(|e| format!("--weights {}: {e}", path.display()))?;
+                Ok(GrpsSolver::with_network(network).with_options(options))
+            }
+        }
+    }
+
     fn runs(&self, e: Experiment) -> bool {
         self.experiments.is_empty() || self.experiments.contains(&Experiment::All) || self.experiments.contains(&e)
     }
@@ -318,7 +336,7 @@ pub fn bench(trials: &[GrpsScene], seed: u64, source: String, args: &GrpsArgs, p
         report.stability = Some(stability(trials, args, progress, &mut report.figures)?);
     }
     if args.runs(Experiment::Starts) {
-        report.starts = starts(trials, seed, progress)?;
+        report.starts = starts(trials, seed, args, progress)?;
     }
     if args.runs(Experiment::Noise) {
         report.noise = noise(seed, args, progress, &mut report.figures)?;
@@ -331,14 +349,14 @@ pub fn bench(trials: &[GrpsScene], seed: u64, source: String, args: &GrpsArgs, p
 
 fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>) -> Result<StabilityReport, String> {
     use SimulatorKind::{Generic, Geometric};
-    let predictor = solver(GrpsSolverOptions::default())?;
-    let single_geo = solver(GrpsSolverOptions::single_path(Geometric))?;
-    let single_gen = solver(GrpsSolverOptions::single_path(Generic))?;
+    let predictor = args.solver(GrpsSolverOptions::default())?;
+    let single_geo = args.solver(GrpsSolverOptions::single_path(Geometric))?;
+    let single_gen = args.solver(GrpsSolverOptions::single_path(Generic))?;
     let no_fallback = |o: GrpsSolverOptions| GrpsSolverOptions { all_roots_fallback: false, ..o };
-    let retry_geo = solver(no_fallback(GrpsSolverOptions::with_simulator(Geometric)))?;
-    let retry_gen = solver(no_fallback(GrpsSolverOptions::with_simulator(Generic)))?;
-    let retry_gn = solver(no_fallback(GrpsSolverOptions::newton_first()))?;
-    let shipped = solver(GrpsSolverOptions::default())?;
+    let retry_geo = args.solver(no_fallback(GrpsSolverOptions::with_simulator(Geometric)))?;
+    let retry_gen = args.solver(no_fallback(GrpsSolverOptions::with_simulator(Generic)))?;
+    let retry_gn = args.solver(no_fallback(GrpsSolverOptions::newton_first()))?;
+    let shipped = args.solver(GrpsSolverOptions::default())?;
     let mut pred = MethodRecord::new("Pred Initial");
     let mut pred_lm = MethodRecord::new("Pred + LM (8 pts)");
     let mut pred_gn = MethodRecord::new("Pred + Gauss-Newton (8 pts)");
@@ -466,14 +484,14 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
 /// Start angles of the success-vs-start-error table.
 pub const START_ANGLES: [f64; 5] = [5.0, 10.0, 20.0, 30.0, 45.0];
 
-fn starts(trials: &[GrpsScene], seed: u64, progress: bool) -> Result<Vec<StartCell>, String> {
+fn starts(trials: &[GrpsScene], seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<StartCell>, String> {
     use SimulatorKind::{Generic, Geometric};
     let methods: [(&str, Option<GrpsSolver>, usize); 5] = [
-        ("HC 8 pts, geometric", Some(solver(GrpsSolverOptions::single_path(Geometric))?), 8),
-        ("HC 8 pts, generic", Some(solver(GrpsSolverOptions::single_path(Generic))?), 8),
+        ("HC 8 pts, geometric", Some(args.solver(GrpsSolverOptions::single_path(Geometric))?), 8),
+        ("HC 8 pts, generic", Some(args.solver(GrpsSolverOptions::single_path(Generic))?), 8),
         ("Gauss-Newton 8 pts", None, 8),
-        ("HC 7 pts, geometric", Some(solver(GrpsSolverOptions::single_path(Geometric))?), 7),
-        ("HC 7 pts, generic", Some(solver(GrpsSolverOptions::single_path(Generic))?), 7),
+        ("HC 7 pts, geometric", Some(args.solver(GrpsSolverOptions::single_path(Geometric))?), 7),
+        ("HC 7 pts, generic", Some(args.solver(GrpsSolverOptions::single_path(Generic))?), 7),
     ];
     let newton = GrpsSolverOptions::default().newton;
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(2));
@@ -533,7 +551,7 @@ fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>)
     for cameras in NOISE_CAMERAS {
         for noise_px in NOISE_LEVELS {
             let config = GrpsSceneConfig { cameras_per_view: cameras, noise_px, ..GrpsSceneConfig::default() };
-            let s = solver(GrpsSolverOptions::for_noise(noise_px, config.focal_px))?;
+            let s = args.solver(GrpsSolverOptions::for_noise(noise_px, config.focal_px))?;
             let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(100 + cameras as u64));
             let mut record = MethodRecord::new("noise");
             let mut reference = MethodRecord::new("reference");
@@ -631,7 +649,7 @@ pub fn ransac_scene(ratio: f64, rng: &mut ChaCha8Rng) -> Result<(GrpsScene, Vec<
 }
 
 fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<RansacRow>, String> {
-    let minimal = solver(GrpsSolverOptions { max_attempts: args.ransac_attempts, ..GrpsSolverOptions::for_ransac() })?;
+    let minimal = args.solver(GrpsSolverOptions { max_attempts: args.ransac_attempts, ..GrpsSolverOptions::for_ransac() })?;
     let mut estimator = GrpsEstimator::new(minimal, args.ransac_sample);
     estimator.hypotheses = args.ransac_hypotheses;
     let mut rows = Vec::new();

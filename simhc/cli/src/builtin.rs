@@ -117,7 +117,7 @@ mod train {
         a.apply(&mut config.train, &mut config.train_samples);
         if let Some(k) = a.hypotheses {
             config.hypotheses = k.into();
-            config.model = simhc_regressor::grps::grps_model(config.hypotheses).with_context_after(config.model.context_after);
+            config.model = simhc_regressor::grps::grps_model(config.hypotheses);
         }
         if let Some(k) = a.context_after {
             config.model = config.model.with_context_after(k.into());

@@ -60,3 +60,80 @@ impl Default for LearnedStartConfig {
         }
     }
 }
+
+/// Why a [`LearnedStartConfig`] describes no network that can be trained. Checked by the
+/// trainer before it draws a scene, and by the `train` command before it starts the trainer.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LearnedStartConfigError {
+    /// No per-row layer, or a layer of width 0.
+    #[error("point_widths {0:?}: at least one per-row layer, each of width at least 1")]
+    PointWidths(Vec<usize>),
+    /// A head layer of width 0.
+    #[error("head_widths {0:?}: every head layer needs width at least 1")]
+    HeadWidths(Vec<usize>),
+    /// The context stage is not between two per-row layers.
+    #[error(
+        "context_after {context_after}: the context stage must follow one of the {layers} per-row layers and precede another (0 for none, at most {})",
+        layers.saturating_sub(1)
+    )]
+    ContextAfter {
+        /// The setting.
+        context_after: usize,
+        /// Per-row layers of the network.
+        layers: usize,
+    },
+    /// Not 1 to [`crate::pipeline::MAX_HYPOTHESES`] start hypotheses.
+    #[error("hypotheses {0}: 1 to {max}", max = crate::pipeline::MAX_HYPOTHESES)]
+    Hypotheses(usize),
+    /// No training scene.
+    #[error("samples 0: training needs at least one scene")]
+    Samples,
+}
+
+impl LearnedStartConfig {
+    /// Whether these settings describe a network that can be trained; the first thing wrong.
+    pub fn check(&self) -> Result<(), LearnedStartConfigError> {
+        if self.point_widths.is_empty() || self.point_widths.contains(&0) {
+            return Err(LearnedStartConfigError::PointWidths(self.point_widths.clone()));
+        }
+        if self.head_widths.contains(&0) {
+            return Err(LearnedStartConfigError::HeadWidths(self.head_widths.clone()));
+        }
+        if self.context_after >= self.point_widths.len() {
+            return Err(LearnedStartConfigError::ContextAfter { context_after: self.context_after, layers: self.point_widths.len() });
+        }
+        if !(1..=crate::pipeline::MAX_HYPOTHESES).contains(&self.hypotheses) {
+            return Err(LearnedStartConfigError::Hypotheses(self.hypotheses));
+        }
+        if self.samples == 0 {
+            return Err(LearnedStartConfigError::Samples);
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_settings_check_and_each_mistake_is_named() {
+        let ok = LearnedStartConfig::default();
+        assert_eq!(ok.check(), Ok(()));
+        let with = |f: fn(&mut LearnedStartConfig)| {
+            let mut c = ok.clone();
+            f(&mut c);
+            c.check()
+        };
+        assert_eq!(with(|c| c.context_after = 2), Ok(()));
+        assert_eq!(with(|c| c.context_after = 3), Err(LearnedStartConfigError::ContextAfter { context_after: 3, layers: 3 }));
+        assert_eq!(with(|c| c.point_widths = vec![]), Err(LearnedStartConfigError::PointWidths(vec![])));
+        assert_eq!(with(|c| c.point_widths = vec![64, 0]), Err(LearnedStartConfigError::PointWidths(vec![64, 0])));
+        assert_eq!(with(|c| c.head_widths = vec![0]), Err(LearnedStartConfigError::HeadWidths(vec![0])));
+        assert_eq!(with(|c| c.hypotheses = 0), Err(LearnedStartConfigError::Hypotheses(0)));
+        assert_eq!(with(|c| c.hypotheses = 9), Err(LearnedStartConfigError::Hypotheses(9)));
+        assert_eq!(with(|c| c.samples = 0), Err(LearnedStartConfigError::Samples));
+        let message = with(|c| c.context_after = 3).unwrap_err().to_string();
+        assert!(message.contains("context_after 3") && message.contains("at most 2"), "{message}");
+    }
+}

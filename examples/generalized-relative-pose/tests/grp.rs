@@ -171,6 +171,17 @@ fn solve_reads_a_file_and_says_where_bad_input_is() {
     assert!(err.contains("malformed JSON at line 1"), "{err}");
 }
 
+/// A setting that describes no network is refused before training starts, naming the setting,
+/// and no weights file is written.
+#[test]
+fn train_refuses_a_context_stage_outside_the_network() {
+    let out = std::env::temp_dir().join(format!("grp-train-refused-{}.folded", std::process::id()));
+    let (ok, _, err) = grp(&["train", "grp", "--context-after", "3", "--out", out.to_str().expect("utf-8")]);
+    assert!(!ok);
+    assert!(err.contains("context_after 3") && err.contains("at most 2"), "{err}");
+    assert!(!out.exists());
+}
+
 /// The compiled solver as a library value, as a user's program calls it: built once, then
 /// called on seeded scenes in random frames, one by one and as a batch across cores.
 #[test]

@@ -25,8 +25,9 @@
 //!    in rank order, [`GrpsSolver::predict_all`]), its rotation with the least-squares `(t, s)`
 //!    ([`super::refine::translation_scale_for_rotation`]), the prediction of the swapped
 //!    problem (view 2 first, [`super::features::swap_views`]) and its rotation with
-//!    least-squares `(t, s)`, each with the [`GrpsSolverOptions::methods`] (default: Simulator
-//!    HC with the geometric simulator, Gauss-Newton, Simulator HC with the generic simulator);
+//!    least-squares `(t, s)`, each with the [`GrpsSolverOptions::methods`] (default:
+//!    Gauss-Newton on every hypothesis, then Simulator HC with the generic simulator on every
+//!    one, then with the geometric one, [`GrpsSolverOptions::by_method`]);
 //!    then restarts: the prediction rotated by 20, 45, 90 and 180 degrees about six fixed axes
 //!    (least-squares `(t, s)`), each with [`GrpsSolverOptions::restart_method`] (default
 //!    Gauss-Newton). Simulator HC is the straight-line homotopy in coefficient form from the
@@ -232,12 +233,20 @@ pub struct GrpsSolverOptions {
     /// by validation wins (with exactly 7 correspondences every root has zero residual, so the
     /// cheirality-valid root closest in rotation to the first start is taken).
     pub all_roots_fallback: bool,
+    /// Order of the first attempts: `false`, every method on one start hypothesis before the
+    /// next hypothesis; `true`, the first method on every hypothesis, then the second on every
+    /// one, and so on (Gauss-Newton, cheap, from each start before any path).
+    pub by_method: bool,
 }
 
 impl Default for GrpsSolverOptions {
     fn default() -> Self {
         Self {
-            methods: [Some(Method::Hc(SimulatorKind::Geometric)), Some(Method::GaussNewton), Some(Method::Hc(SimulatorKind::Generic))],
+            // Gauss-Newton on every start hypothesis before any path (`by_method`): on the
+            // 8-point trials it validates as often as a path first at half the mean time, and on
+            // 7 points it picks the same roots or better (BENCHMARKS.md, 2026-12-04); the paths
+            // then take the hypotheses Gauss-Newton could not.
+            methods: [Some(Method::GaussNewton), Some(Method::Hc(SimulatorKind::Generic)), Some(Method::Hc(SimulatorKind::Geometric))],
             restart_method: Some(Method::GaussNewton),
             restart_angles_deg: [20.0, 45.0, 90.0, 180.0],
             max_attempts: 40,
@@ -248,6 +257,7 @@ impl Default for GrpsSolverOptions {
             tracker: TrackerOptions { require_final_convergence: false, ..TrackerOptions::single_path() },
             newton: NewtonOptions { max_iterations: 20, ..NewtonOptions::default() },
             all_roots_fallback: true,
+            by_method: true,
         }
     }
 }
@@ -266,19 +276,16 @@ impl GrpsSolverOptions {
         }
     }
 
-    /// The default retries with `simulator` first (then Gauss-Newton, then the other simulator).
+    /// The retries with `simulator` first, all three methods on each start hypothesis before the
+    /// next (then Gauss-Newton, then the other simulator): the shipped order until 2026-12-04.
     pub fn with_simulator(simulator: SimulatorKind) -> Self {
         let other = match simulator {
             SimulatorKind::Geometric => SimulatorKind::Generic,
             SimulatorKind::Generic => SimulatorKind::Geometric,
         };
-        Self { methods: [Some(Method::Hc(simulator)), Some(Method::GaussNewton), Some(Method::Hc(other))], ..Self::default() }
-    }
-
-    /// Gauss-Newton first on each start hypothesis, then Simulator HC (generic, geometric).
-    pub fn newton_first() -> Self {
         Self {
-            methods: [Some(Method::GaussNewton), Some(Method::Hc(SimulatorKind::Generic)), Some(Method::Hc(SimulatorKind::Geometric))],
+            methods: [Some(Method::Hc(simulator)), Some(Method::GaussNewton), Some(Method::Hc(other))],
+            by_method: false,
             ..Self::default()
         }
     }
@@ -310,6 +317,8 @@ impl GrpsSolverOptions {
             plausible_angle: 0.02,
             extra_attempts: 0,
             all_roots_fallback: false,
+            // As measured in the RANSAC bench: both methods on a start before the next.
+            by_method: false,
             ..Self::default()
         }
     }
@@ -648,8 +657,11 @@ impl GrpsSolver {
             kinds.extend((1..predictions.min(MAX_HYPOTHESES)).map(|k| StartKind::Hypothesis(k as u8)));
             kinds.extend([StartKind::PredictedRotation, StartKind::Swapped, StartKind::SwappedRotation]);
         }
-        let mut slots: Vec<(usize, Option<pipeline::Method>)> =
-            (0..kinds.len()).flat_map(|provider| first.iter().map(move |&method| (provider, method))).collect();
+        let mut slots: Vec<(usize, Option<pipeline::Method>)> = if o.by_method {
+            first.iter().flat_map(|&method| (0..kinds.len()).map(move |provider| (provider, method))).collect()
+        } else {
+            (0..kinds.len()).flat_map(|provider| first.iter().map(move |&method| (provider, method))).collect()
+        };
         if let Some(restart) = o.restart_method {
             for k in 0..(o.restart_angles_deg.len() * AXES.len()) as u8 {
                 slots.push((kinds.len(), restart.in_pipeline()));
@@ -951,4 +963,32 @@ fn all_roots_fallback(corrs: &[GrpsCorrespondence], start: &GrpsPose, newton: &N
         }
     }
     best.map(|(p, _, _)| p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The order of the first attempts: by start hypothesis, or each method on every
+    /// hypothesis before the next method (the default), with the restarts after both.
+    #[test]
+    fn the_schedule_runs_gauss_newton_on_every_start_before_any_path_by_default() {
+        let solver = GrpsSolver::new().expect("shipped weights");
+        let gn = pipeline::Method::GaussNewton;
+        let (kinds, schedule) = solver.schedule(StartKind::Prediction, 1);
+        // The prediction, its rotation with least-squares (t, s), and both swapped: 4 starts.
+        let starts = kinds.iter().take_while(|k| !matches!(k, StartKind::Perturbed(_))).count();
+        assert_eq!(starts, 4);
+        let first: Vec<(usize, pipeline::Method)> = schedule.iter().take(3 * starts).map(|a| (a.provider, a.method)).collect();
+        assert!(first[..starts].iter().enumerate().all(|(k, &(p, m))| p == k && m == gn), "{first:?}");
+        assert!(first[starts..].iter().all(|&(_, m)| m != gn), "{first:?}");
+        assert!(schedule[3 * starts..].iter().all(|a| a.provider >= starts && a.method == gn));
+
+        let by_start = solver.clone().with_options(GrpsSolverOptions { by_method: false, ..GrpsSolverOptions::default() });
+        let (_, schedule) = by_start.schedule(StartKind::Prediction, 1);
+        let first: Vec<usize> = schedule.iter().take(3 * starts).map(|a| a.provider).collect();
+        assert_eq!(first, [0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3]);
+        let restarts = GrpsSolverOptions::default().restart_angles_deg.len() * AXES.len();
+        assert_eq!(schedule.len(), 3 * starts + restarts);
+    }
 }

@@ -232,14 +232,8 @@ where
         config.point_widths = a.point_widths.map_or(config.point_widths, widths);
         config.head_widths = a.head_widths.map_or(config.head_widths, widths);
         config.context_after = a.context_after.unwrap_or(config.context_after);
-        if config.context_after >= config.point_widths.len() {
-            return Err(format!(
-                "--context-after {}: the context stage must follow one of the {} per-row layers and precede another (0 to {})",
-                config.context_after,
-                config.point_widths.len(),
-                config.point_widths.len() - 1
-            ));
-        }
+        // The flags' mistakes are reported before the trainer starts (and without a panic).
+        config.check().map_err(|e| format!("train {}: {e}", S::NAME))?;
         let out = a.out.unwrap_or_else(|| PathBuf::from(format!("{}.folded", S::NAME)));
         println!(
             "train {}: {} scenes (noise {}), {} epochs, {} start hypotheses, layers {:?} (context after {}) then {:?}, seed {}",

@@ -355,7 +355,7 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
     let no_fallback = |o: GrpsSolverOptions| GrpsSolverOptions { all_roots_fallback: false, ..o };
     let retry_geo = args.solver(no_fallback(GrpsSolverOptions::with_simulator(Geometric)))?;
     let retry_gen = args.solver(no_fallback(GrpsSolverOptions::with_simulator(Generic)))?;
-    let retry_gn = args.solver(no_fallback(GrpsSolverOptions::newton_first()))?;
+    let retry_gn = args.solver(no_fallback(GrpsSolverOptions::default()))?;
     let shipped = args.solver(GrpsSolverOptions::default())?;
     let mut pred = MethodRecord::new("Pred Initial");
     let mut pred_lm = MethodRecord::new("Pred + LM (8 pts)");
@@ -367,7 +367,9 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
         SolverRow::new("Sim HC 8 pts, generic, 1 path"),
         SolverRow::new("Sim HC 8 pts, geometric + retries"),
         SolverRow::new("Sim HC 8 pts, generic + retries"),
-        SolverRow::new("GN first + Sim HC retries, 8 pts"),
+        SolverRow::new("GN on every start, then Sim HC, 8 pts"),
+        SolverRow::new("Sim HC 7 pts, geometric + retries"),
+        SolverRow::new("GN on every start, then Sim HC, 7 pts"),
         SolverRow::new("Shipped 7 pts (retries+fallback)"),
         SolverRow::new("Shipped 8 pts (retries+fallback)"),
     ];
@@ -400,7 +402,7 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
         });
         pred_gn.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
 
-        let solvers: [(&GrpsSolver, &[GrpsCorrespondence]); 9] = [
+        let solvers: [(&GrpsSolver, &[GrpsCorrespondence]); 11] = [
             (&single_geo, c7),
             (&single_gen, c7),
             (&single_geo, c8),
@@ -408,6 +410,8 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
             (&retry_geo, c8),
             (&retry_gen, c8),
             (&retry_gn, c8),
+            (&retry_geo, c7),
+            (&retry_gn, c7),
             (&shipped, c7),
             (&shipped, c8),
         ];

@@ -158,6 +158,9 @@ pub enum LearnedStartError {
         /// Scenes drawn for it.
         draws: usize,
     },
+    /// The settings describe no network that can be trained.
+    #[error("settings: {0}")]
+    Config(#[from] simhc::training::LearnedStartConfigError),
     /// The data set could not be built.
     #[error(transparent)]
     Data(#[from] DataError),
@@ -396,6 +399,7 @@ where
     R: InputRows,
     F: FnMut(&mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>),
 {
+    config.check()?;
     let hook = LayoutFeatures::with_rows(layout, &rows);
     let model = hook.model(config);
     let hook = WinnerTakesAll { hook, hypotheses: config.hypotheses, relax: config.relax };

@@ -28,8 +28,8 @@
 //!    least-squares `(t, s)`, each with the [`GrpsSolverOptions::methods`] (default:
 //!    Gauss-Newton on every hypothesis, then Simulator HC with the generic simulator on every
 //!    one, then with the geometric one, [`GrpsSolverOptions::by_method`]);
-//!    then restarts: the prediction rotated by 20, 45, 90 and 180 degrees about six fixed axes
-//!    (least-squares `(t, s)`), each with [`GrpsSolverOptions::restart_method`] (default
+//!    then restarts: the prediction rotated by 20, 45, 90, 135 and 180 degrees about 13 fixed
+//!    axes (least-squares `(t, s)`), each with [`GrpsSolverOptions::restart_method`] (default
 //!    Gauss-Newton). Simulator HC is the straight-line homotopy in coefficient form from the
 //!    simulated start problem, tracked by the adaptive single-path tracker.
 //!    `max_attempts = 1` and no fallback is the paper's single path
@@ -166,7 +166,7 @@ pub enum StartKind {
     Swapped,
     /// The swapped prediction's rotation with the least-squares translation and scale.
     SwappedRotation,
-    /// The prediction rotated by `restart_angles_deg[k / 6]` about the fixed axis `k % 6`.
+    /// The prediction rotated by `restart_angles_deg[k / 13]` about the fixed axis `k % 13`.
     Perturbed(u8),
     /// The regressor's hypothesis of rank `k >= 1` (a network with several hypotheses per
     /// prediction; [`StartKind::Prediction`] is rank 0), ranked by
@@ -197,11 +197,13 @@ pub struct GrpsSolverOptions {
     /// Methods tried on each of the first start hypotheses (the prediction, its rotation with
     /// least-squares `(t, s)`, the swapped prediction), in order.
     pub methods: [Option<Method>; 3],
-    /// Method tried on each restart (the prediction rotated by `restart_angles_deg` about six
+    /// Method tried on each restart (the prediction rotated by `restart_angles_deg` about 13
     /// fixed axes); `None`: no restarts.
     pub restart_method: Option<Method>,
-    /// Rotations of the restarts (degrees), each about six fixed axes.
-    pub restart_angles_deg: [f64; 4],
+    /// Rotations of the restarts (degrees), each about 13 fixed axes: 65 Gauss-Newton restarts
+    /// of about 5 us each, which leave a third as many trials to the 12 ms all-roots fallback as
+    /// 24 restarts did (BENCHMARKS.md, 2026-12-04).
+    pub restart_angles_deg: [f64; 5],
     /// Attempts (start hypothesis x method) at most; `1` is the paper's single path.
     pub max_attempts: usize,
     /// An end point whose largest angular residual is at most this (and that passes
@@ -248,8 +250,8 @@ impl Default for GrpsSolverOptions {
             // then take the hypotheses Gauss-Newton could not.
             methods: [Some(Method::GaussNewton), Some(Method::Hc(SimulatorKind::Generic)), Some(Method::Hc(SimulatorKind::Geometric))],
             restart_method: Some(Method::GaussNewton),
-            restart_angles_deg: [20.0, 45.0, 90.0, 180.0],
-            max_attempts: 40,
+            restart_angles_deg: [20.0, 45.0, 90.0, 135.0, 180.0],
+            max_attempts: 80,
             accept_angle: 1e-9,
             plausible_angle: 1e-6,
             extra_attempts: 4,
@@ -434,9 +436,23 @@ pub struct GrpsSolver {
     pub options: GrpsSolverOptions,
 }
 
-/// Six fixed unit axes for the perturbed starts (spread over the sphere).
-const AXES: [[f64; 3]; 6] =
-    [[0.577, 0.577, 0.577], [-0.577, -0.577, 0.577], [0.577, -0.577, -0.577], [-0.577, 0.577, -0.577], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+/// Fixed unit axes of the perturbed starts, spread over the sphere: the cube's 4 diagonals, 3
+/// face normals and 6 edge directions (one of each pair of opposite axes).
+const AXES: [[f64; 3]; 13] = [
+    [0.577, 0.577, 0.577],
+    [-0.577, -0.577, 0.577],
+    [0.577, -0.577, -0.577],
+    [-0.577, 0.577, -0.577],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [0.707, 0.707, 0.0],
+    [0.707, -0.707, 0.0],
+    [0.707, 0.0, 0.707],
+    [-0.707, 0.0, 0.707],
+    [0.0, 0.707, 0.707],
+    [0.0, 0.707, -0.707],
+];
 
 impl GrpsSolver {
     /// The solver with the shipped regressor and default options.

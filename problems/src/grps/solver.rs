@@ -478,6 +478,12 @@ impl GrpsSolver {
     }
 
     /// Solves for the pose.
+    ///
+    /// With exactly 7 correspondences the problem is minimal: every real root of the system
+    /// fits them exactly, so validation cannot tell the true pose from another real root (on
+    /// the benchmark's 7-point trials about a fifth of the validated poses are another root).
+    /// Give 8 or more correspondences for a unique pose, or take every root that fits with
+    /// [`GrpsSolver::candidates`] and let more data choose (as RANSAC does).
     pub fn solve(&self, corrs: &[GrpsCorrespondence]) -> Result<GrpsPose, GrpsSolveError> {
         self.solve_report(corrs).map(|r| r.pose)
     }

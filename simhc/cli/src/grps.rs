@@ -855,7 +855,8 @@ pub fn text(report: &BenchReport) -> String {
 
 /// `simhc solve grps --input F`: the pose of the correspondences in a JSON file
 /// (`{"correspondences": [{"f": [..], "v": [..], "fp": [..], "vp": [..]}, ..]}`, or a bare
-/// array of them).
+/// array of them). `"minimal": true` (exactly 7 correspondences): the pose fits them exactly,
+/// and so may other poses.
 pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
     let corrs: Vec<GrpsCorrespondence> = simhc_problems::input::parse_correspondences(text).map_err(|e| e.to_string())?;
     let s = solver(GrpsSolverOptions::default())?;
@@ -872,6 +873,9 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
         "scale": report.pose.scale,
         "convention": "alpha_i f_i + v_i = R (alpha'_i fp_i + s vp_i) + t",
         "validated": validated,
+        // 7 correspondences are minimal: every real root fits them exactly, so `validated`
+        // cannot mean "the" pose (`GrpsSolver::solve`).
+        "minimal": corrs.len() == 7,
         "max_angular_residual": report.validation.max_angle,
         "behind_camera": report.validation.behind,
         "attempts": report.attempts,

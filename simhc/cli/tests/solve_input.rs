@@ -50,6 +50,32 @@ fn solve_upnp_reports_a_validated_pose() {
     }
 }
 
+/// A seeded GRPS scene's first `n` correspondences as the `solve grps` input.
+fn grps_input(n: usize, seed: u64) -> String {
+    let scene = simhc_problems::grps::scene::GrpsSceneConfig { points: n, ..Default::default() }.sample_seeded(seed).expect("a scene");
+    let v3 = |v: &nalgebra::Vector3<f64>| format!("[{}, {}, {}]", v.x, v.y, v.z);
+    let rows: Vec<String> = scene
+        .correspondences
+        .iter()
+        .map(|c| format!(r#"{{"f": {}, "v": {}, "fp": {}, "vp": {}}}"#, v3(&c.f), v3(&c.v), v3(&c.fp), v3(&c.vp)))
+        .collect();
+    format!("{{\"correspondences\": [{}]}}", rows.join(", "))
+}
+
+/// With 8 correspondences the pose is unique; with the minimal 7 the output says that other
+/// poses may fit them as exactly.
+#[test]
+fn solve_grps_says_when_the_data_is_minimal() {
+    for (n, minimal) in [(8, false), (7, true)] {
+        let path = write(&format!("grps{n}.json"), &grps_input(n, 5));
+        let (ok, out, err) = simhc(&["solve", "grps", "--input", path.to_str().expect("utf-8 path")]);
+        assert!(ok, "stderr: {err}");
+        let doc: serde_json::Value = serde_json::from_str(&out).expect("JSON output");
+        assert_eq!(doc["validated"], serde_json::Value::Bool(true), "{out}");
+        assert_eq!(doc["minimal"], serde_json::Value::Bool(minimal), "{n} correspondences: {out}");
+    }
+}
+
 #[test]
 fn bad_solve_inputs_say_where() {
     let cases = [

@@ -77,8 +77,9 @@ def errors(R, t, Rg, tg):
     return math.degrees(math.acos(c)), 100 * np.linalg.norm(t - tg) / np.linalg.norm(tg)
 
 
-def run_poselib(tr, threshold):
-    """PoseLib with its defaults but the threshold; returns (R, t, mask, micros) in our convention."""
+def run_poselib(tr, threshold, min_iterations=1000):
+    """PoseLib with its defaults but the threshold and the minimum of iterations (its default
+    1000); returns (R, t, mask, micros) in our convention."""
     groups = {}
     for k, (i, j, f, fp) in enumerate(tr["matches"]):
         groups.setdefault((i, j), []).append(k)
@@ -100,7 +101,7 @@ def run_poselib(tr, threshold):
     exts2 = [ext(c) for c in tr["cams2"]]
     cam = {"model": "PINHOLE", "width": 2, "height": 2, "params": [1.0, 1.0, 0.0, 0.0]}
     t0 = time.perf_counter()
-    pose, info = poselib.estimate_generalized_relative_pose(pm, exts1, [cam] * 4, exts2, [cam] * 4, {"max_epipolar_error": threshold}, {})
+    pose, info = poselib.estimate_generalized_relative_pose(pm, exts1, [cam] * 4, exts2, [cam] * 4, {"max_epipolar_error": threshold, "min_iterations": min_iterations}, {})
     micros = (time.perf_counter() - t0) * 1e6
     # PoseLib's pose maps rig 1 to rig 2 (X2 = R X1 + t); ours is its inverse.
     R = pose.R.T
@@ -145,8 +146,11 @@ def main():
     ap = common_arguments()
     ap.add_argument("--runner", default="target/release/grp_robust")
     ap.add_argument("--out", default="bench/peers/build/results")
+    ap.add_argument("--min-iterations", type=int, default=1000,
+                    help="RANSAC iterations at least, for both estimators (PoseLib's default 1000)")
     a = ap.parse_args()
-    print(f"robust_grp: seed {a.seed}, {a.trials} trials, outliers {a.outliers}, noise {a.noise_px} px", flush=True)
+    print(f"robust_grp: seed {a.seed}, {a.trials} trials, outliers {a.outliers}, noise {a.noise_px} px, "
+          f"min_iterations {a.min_iterations}", flush=True)
     rng = np.random.default_rng(a.seed)
     sigma = a.noise_px / FOCAL
     trials = [scene(rng, a.outliers, sigma) for _ in range(a.trials)]
@@ -156,7 +160,8 @@ def main():
     with open(path, "w") as fh:
         json.dump({"trials": [{"rows": tr["rows"]} for tr in trials]}, fh)
     angle = 3 * math.sqrt(2) * max(sigma, 1e-6)
-    res = subprocess.run([a.runner, path, "--threshold", str(angle), "--noise", str(a.noise_px), "--seed", str(a.seed)],
+    res = subprocess.run([a.runner, path, "--threshold", str(angle), "--noise", str(a.noise_px), "--seed", str(a.seed),
+                          "--min-iterations", str(a.min_iterations)],
                          capture_output=True, text=True, check=True)
     ours = [json.loads(line) for line in res.stdout.splitlines()]
     table = {"simhc.estimate": [], "poselib.estimate_generalized_relative_pose": []}
@@ -168,7 +173,7 @@ def main():
         else:
             er, et, recall = math.inf, math.inf, 0.0
         table["simhc.estimate"].append((er < 2 and et < 5, recall, o["micros"]))
-        R, t, mask, micros, _ = run_poselib(tr, angle)
+        R, t, mask, micros, _ = run_poselib(tr, angle, a.min_iterations)
         er, et = errors(R, t, tr["R"], tr["t"])
         recall = np.sum(mask & truth) / truth.sum()
         table["poselib.estimate_generalized_relative_pose"].append((er < 2 and et < 5, recall, micros))

@@ -157,6 +157,11 @@ const LO_ITERATIONS: usize = 10;
 /// Relative step of the forward differences of the local optimization's error gradients.
 const DIFFERENCE_STEP: f64 = 1e-7;
 
+/// A difference step whose unsigned error changes by at most this fraction of the error keeps
+/// the error's sign ([`Samples::signed_error_gradient`]); a crossing of zero would show as a
+/// change of about twice the error.
+const SAME_SIGN: f64 = 0.01;
+
 /// Halvings of a local optimization step that does not lower the robust cost, before giving up.
 const HALVINGS: i32 = 4;
 
@@ -297,14 +302,24 @@ where
     /// generalized epipolar error), and Gauss-Newton on the scaled equations with that scale
     /// frozen stops at a point biased along it (the translation's length), short of the
     /// error's minimum.
+    ///
+    /// The sign needs the row's equations, which without a one-row kernel means the whole
+    /// system's residual (a few times the error's own cost), so it is taken once, at `x`: a
+    /// difference step keeps it unless the error crosses zero on the way. A crossing makes the
+    /// unsigned error's apparent change differ from the true one by about twice the error, so
+    /// where the apparent change is not well below the error the sign is taken again at the
+    /// moved point (always on noise-free data, whose errors are about zero).
     fn signed_error_gradient(&self, x: &SVector<f64, NX>, row: &[f64]) -> Option<(f64, SVector<f64, NX>)> {
         let e = self.signed_error(x, row)?;
+        let (sign, size) = (e.signum(), e.abs());
+        let problem = self.solver.problem();
         let mut grad = SVector::<f64, NX>::zeros();
         for k in 0..NX {
             let step = DIFFERENCE_STEP * (1.0 + x[k].abs());
             let mut moved = *x;
             moved[k] += step;
-            grad[k] = (self.signed_error(&moved, row)? - e) / step;
+            let change = problem.row_error(&moved, row, self.globals) - size;
+            grad[k] = if change.abs() <= SAME_SIGN * size { sign * change / step } else { (self.signed_error(&moved, row)? - e) / step };
         }
         Some((e, grad))
     }

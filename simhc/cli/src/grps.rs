@@ -355,7 +355,7 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
     let no_fallback = |o: GrpsSolverOptions| GrpsSolverOptions { all_roots_fallback: false, ..o };
     let retry_geo = args.solver(no_fallback(GrpsSolverOptions::with_simulator(Geometric)))?;
     let retry_gen = args.solver(no_fallback(GrpsSolverOptions::with_simulator(Generic)))?;
-    let retry_gn = args.solver(no_fallback(GrpsSolverOptions::default()))?;
+    let retry_shipped_order = args.solver(no_fallback(GrpsSolverOptions::default()))?;
     let shipped = args.solver(GrpsSolverOptions::default())?;
     let mut pred = MethodRecord::new("Pred Initial");
     let mut pred_lm = MethodRecord::new("Pred + LM (8 pts)");
@@ -409,9 +409,9 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
             (&single_gen, c8),
             (&retry_geo, c8),
             (&retry_gen, c8),
-            (&retry_gn, c8),
+            (&retry_shipped_order, c8),
             (&retry_geo, c7),
-            (&retry_gn, c7),
+            (&retry_shipped_order, c7),
             (&shipped, c7),
             (&shipped, c8),
         ];

@@ -158,8 +158,10 @@ const LO_ITERATIONS: usize = 10;
 const DIFFERENCE_STEP: f64 = 1e-7;
 
 /// A difference step whose unsigned error changes by at most this fraction of the error keeps
-/// the error's sign ([`Samples::signed_error_gradient`]); a crossing of zero would show as a
-/// change of about twice the error.
+/// the error's sign ([`Samples::signed_error_gradient`]). A crossing of zero with a true change
+/// `d` (at least the error `e` in size) shows as an apparent change of `-(2e + d)`, so only a
+/// crossing with `d` within 1 % of `-2e` passes for a kept sign; it then gives one row's
+/// gradient component a wrong size for one iteration, which the step halvings absorb.
 const SAME_SIGN: f64 = 0.01;
 
 /// Halvings of a local optimization step that does not lower the robust cost, before giving up.
@@ -305,10 +307,10 @@ where
     ///
     /// The sign needs the row's equations, which without a one-row kernel means the whole
     /// system's residual (a few times the error's own cost), so it is taken once, at `x`: a
-    /// difference step keeps it unless the error crosses zero on the way. A crossing makes the
-    /// unsigned error's apparent change differ from the true one by about twice the error, so
-    /// where the apparent change is not well below the error the sign is taken again at the
-    /// moved point (always on noise-free data, whose errors are about zero).
+    /// difference step keeps it unless the error crosses zero on the way. Where the unsigned
+    /// error's apparent change is not well below the error (a crossing, [`SAME_SIGN`], and
+    /// always on noise-free data, whose errors are about zero) the sign is taken again at the
+    /// moved point.
     fn signed_error_gradient(&self, x: &SVector<f64, NX>, row: &[f64]) -> Option<(f64, SVector<f64, NX>)> {
         let e = self.signed_error(x, row)?;
         let (sign, size) = (e.signum(), e.abs());

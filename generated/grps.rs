@@ -9867,6 +9867,27 @@ pub mod grps {
             };
             __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
         }
+        #[inline]
+        fn row_equations(
+            self,
+            x: &[f64; 8],
+            p: &[f64],
+            f: &mut [f64],
+            j: &mut [f64],
+        ) -> bool {
+            let (Ok(p), Ok(f), Ok(j)) = (
+                <&[f64; 12]>::try_from(p),
+                <&mut [f64; 1]>::try_from(f),
+                <&mut [f64; 8]>::try_from(j),
+            ) else {
+                return false;
+            };
+            let mut shared = [0.0f64; 9];
+            __SimhcRowKernels::__row_param_shared(x, &mut shared);
+            let (dp, mut d) = ([0.0f64; 12], [0.0f64; 1]);
+            __SimhcRowKernels::__row_param_lanes(x, &shared, p, &dp, f, j, &mut d);
+            true
+        }
     }
     /// `grps8`: 9 equations in 8 unknowns with 96 parameters (8 rows).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -19314,6 +19335,27 @@ pub mod grps {
                 return;
             };
             __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
+        }
+        #[inline]
+        fn row_equations(
+            self,
+            x: &[f64; 8],
+            p: &[f64],
+            f: &mut [f64],
+            j: &mut [f64],
+        ) -> bool {
+            let (Ok(p), Ok(f), Ok(j)) = (
+                <&[f64; 12]>::try_from(p),
+                <&mut [f64; 1]>::try_from(f),
+                <&mut [f64; 8]>::try_from(j),
+            ) else {
+                return false;
+            };
+            let mut shared = [0.0f64; 9];
+            __SimhcRowKernels::__row_param_shared(x, &mut shared);
+            let (dp, mut d) = ([0.0f64; 12], [0.0f64; 1]);
+            __SimhcRowKernels::__row_param_lanes(x, &shared, p, &dp, f, j, &mut d);
+            true
         }
     }
 }

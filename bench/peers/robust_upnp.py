@@ -100,7 +100,7 @@ def main():
             ("poselib.estimate_generalized_absolute_pose", run_poselib(tr, threshold)),
         ):
             er, et = errors(R, t, tr["R"], tr["t"]) if R is not None else (math.inf, math.inf)
-            table[name].append((er < 2 and et < 5, np.sum(mask & truth) / truth.sum(), micros))
+            table[name].append((er < 2 and et < 5, np.sum(mask & truth) / truth.sum(), micros, er, et))
     medians = print_table(table)
     s, p = medians["simhc.estimate_upnp"], medians["poselib.estimate_generalized_absolute_pose"]
     print(f"time per call, simhc / PoseLib (median): {s / p:.2f}")

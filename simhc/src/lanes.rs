@@ -137,6 +137,33 @@ impl Lanes for F64x4 {
     }
 }
 
+/// One `f64` as a single lane: the lane kernels evaluated for one row or one path, where
+/// gathering four lanes would waste three (the robust estimator's one-row kernel,
+/// [`crate::ParamLanes::row_equations`]). Lane index `i` is ignored.
+impl Lanes for f64 {
+    type Scalar = f64;
+    #[inline(always)]
+    fn from_real(c: f64) -> Self {
+        c
+    }
+    #[inline(always)]
+    fn scale(self, c: f64) -> Self {
+        self * c
+    }
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn get(&self, _: usize) -> f64 {
+        *self
+    }
+    #[inline(always)]
+    fn set(&mut self, _: usize, v: f64) {
+        *self = v;
+    }
+}
+
 impl Add for C64x4 {
     type Output = Self;
     #[inline(always)]

@@ -177,6 +177,13 @@ pub trait ParamLanes<const NX: usize, const NF: usize>: PathLanes<NX, NF> {
     /// parameters `p` (its own, then the globals) and a direction `dp` of them, the residuals
     /// `f`, Jacobian rows `j` and `dF/dp * dp` in `d` (`dH/dt` for `dp = dp/dt`).
     fn row_params<L: crate::lanes::Lanes>(self, x: &[L; NX], shared: &[L], p: &[L], dp: &[L], f: &mut [L], j: &mut [L], d: &mut [L]);
+
+    /// One row's equations `f` (`epr`) and their Jacobian rows `j` (`epr * NX`, row-major) at
+    /// `x`, in `f64`, from the row's `inputs` parameters `p` (its own, then the globals): the
+    /// shared part and the row kernel in one call, with buffers sized by the generator. The
+    /// robust estimator's per-correspondence kernel (one row, not the whole system with the row
+    /// in every slot). Slices of other lengths: `false`, outputs untouched.
+    fn row_equations(self, x: &[f64; NX], p: &[f64], f: &mut [f64], j: &mut [f64]) -> bool;
 }
 
 /// The lane kernels of an instance that has none: a type without values, so that
@@ -214,6 +221,9 @@ impl<const NX: usize, const NF: usize> ParamLanes<NX, NF> for NoLanes {
         match self {}
     }
     fn row_params<L: crate::lanes::Lanes>(self, _: &[L; NX], _: &[L], _: &[L], _: &[L], _: &mut [L], _: &mut [L], _: &mut [L]) {
+        match self {}
+    }
+    fn row_equations(self, _: &[f64; NX], _: &[f64], _: &mut [f64], _: &mut [f64]) -> bool {
         match self {}
     }
 }

@@ -283,6 +283,28 @@ where
             }
         }
     }
+    // The one-row `f64` kernel ([`simhc::ParamLanes::row_equations`], the robust estimator's)
+    // against the same full system at a real point, row by row.
+    let (xr, pr) = (xs[0].map(|v| v.re), ps[0].map(|v| v.re));
+    let (mut fe, mut je) = (SVector::<f64, NF>::zeros(), SMatrix::<f64, NF, NX>::zeros());
+    P::residual_jacobian(&xr, &pr, &mut fe, &mut je);
+    let xa: [f64; NX] = std::array::from_fn(|i| xr[i]);
+    for r in 0..rows {
+        let p: Vec<f64> = (0..k).map(|i| pr[if i < row_len { r * row_len + i } else { rows * row_len + (i - row_len) }]).collect();
+        let (mut f, mut j) = (vec![f64::NAN; epr], vec![f64::NAN; epr * NX]);
+        assert!(kernels.row_equations(&xa, &p, &mut f, &mut j), "{}: row_equations refused its layout", P::NAME);
+        for e in 0..epr {
+            let row = r * epr + e;
+            assert!(close(f[e], fe[row], 1e-11, fe.amax()), "{}: one-row kernel, row {r} residual, seed {seed}", P::NAME);
+            for x in 0..NX {
+                assert!(close(j[e * NX + x], je[(row, x)], 1e-11, je.amax()), "{}: one-row kernel, row {r} J[{x}], seed {seed}", P::NAME);
+            }
+        }
+        // Wrong lengths are refused and leave the outputs untouched.
+        let before = f.clone();
+        assert!(!kernels.row_equations(&xa, &p[1..], &mut f, &mut j), "{}: row_equations took a short row", P::NAME);
+        assert_eq!(f, before);
+    }
     true
 }
 

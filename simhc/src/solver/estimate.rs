@@ -17,14 +17,16 @@
 //!   between [`RansacOptions::min_iterations`] and [`RansacOptions::max_iterations`];
 //!   [`RansacOptions::poselib`] gives PoseLib's defaults.
 //!
-//! The row residual and its Jacobian come from the tracked instance's compiled code, with the
-//! row written into every row slot (its first row's equations are the row's).
+//! The row residual and its Jacobian come from the tracked instance's compiled one-row kernel
+//! ([`crate::ParamLanes::row_equations`]: one row's parameters in, one row's equations out);
+//! an instance without one (its global equations have parameters) evaluates the whole system
+//! with the row written into every row slot (its first row's equations are the row's).
 
 use super::library::{sample_schedule, Solver};
 use super::problem::DeclaredProblem;
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::ransac::{ransac, Estimator, RansacOptions, RansacResult};
-use crate::{Problem, ProblemLayout};
+use crate::{CoefficientForm, ParamLanes, Problem, ProblemLayout};
 use nalgebra::{SMatrix, SVector};
 use std::marker::PhantomData;
 use thiserror::Error;
@@ -102,40 +104,64 @@ pub enum EstimateError {
     },
 }
 
-/// The row equations of one row (`row`: its numbers, `globals`: the global numbers) at `x`,
-/// written into `f` (the first `equations_per_row` entries matter). `None` for rows or globals
-/// of the wrong length.
-fn row_equations<Q, const NX: usize, const NF: usize, const NP: usize>(
+/// The equations of one row (`row`: its numbers, `globals`: the global numbers) at `x` and
+/// their Jacobian rows, into the first `equations_per_row` entries of `f` and rows of `j`; that
+/// count, or `None` for rows or globals of the wrong length.
+///
+/// The instance's compiled one-row kernel ([`ParamLanes::row_equations`]) where it has one:
+/// the cost of one row. Otherwise the whole system with the row written into every row slot
+/// (its first row's equations are the row's).
+fn row_equations<Q, const NX: usize, const NF: usize, const NP: usize, const NC: usize>(
     x: &SVector<f64, NX>,
     row: &[f64],
     globals: &[f64],
     f: &mut SVector<f64, NF>,
+    j: &mut SMatrix<f64, NF, NX>,
 ) -> Option<usize>
 where
-    Q: Problem<NX, NF, NP> + ProblemLayout,
+    Q: CoefficientForm<NX, NF, NP, NC> + ProblemLayout,
 {
     let layout = Q::LAYOUT;
-    if row.len() != layout.per_row || globals.len() != layout.globals_len() || layout.rows == 0 {
+    let (per_row, epr) = (layout.per_row, layout.equations_per_row);
+    if row.len() != per_row || globals.len() != layout.globals_len() || layout.rows == 0 {
         return None;
     }
     let mut p = SVector::<f64, NP>::zeros();
-    for r in 0..layout.rows {
-        p.as_mut_slice()[r * layout.per_row..(r + 1) * layout.per_row].copy_from_slice(row);
+    if let Some(kernel) = Q::PARAM_LANES {
+        let inputs = per_row + globals.len();
+        p.as_mut_slice()[..per_row].copy_from_slice(row);
+        p.as_mut_slice()[per_row..inputs].copy_from_slice(globals);
+        let (mut fr, mut jr) = ([0.0; NF], [[0.0; NX]; NF]);
+        let xa: [f64; NX] = (*x).into();
+        if kernel.row_equations(&xa, &p.as_slice()[..inputs], &mut fr[..epr], jr[..epr].as_flattened_mut()) {
+            for e in 0..epr {
+                f[e] = fr[e];
+                j.row_mut(e).copy_from_slice(&jr[e]);
+            }
+            return Some(epr);
+        }
     }
-    p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(globals);
-    Q::residual(x, &p, f);
-    Some(layout.equations_per_row)
+    for r in 0..layout.rows {
+        p.as_mut_slice()[r * per_row..(r + 1) * per_row].copy_from_slice(row);
+    }
+    p.as_mut_slice()[layout.rows * per_row..].copy_from_slice(globals);
+    Q::residual_jacobian(x, &p, f, j);
+    Some(epr)
 }
 
 /// The default per-correspondence error: the largest absolute residual of the row's equations
 /// at `x` (the problem's algebraic units); infinite for a row of the wrong length or a
 /// non-finite residual.
-pub fn row_residual<Q, const NX: usize, const NF: usize, const NP: usize>(x: &SVector<f64, NX>, row: &[f64], globals: &[f64]) -> f64
+pub fn row_residual<Q, const NX: usize, const NF: usize, const NP: usize, const NC: usize>(
+    x: &SVector<f64, NX>,
+    row: &[f64],
+    globals: &[f64],
+) -> f64
 where
-    Q: Problem<NX, NF, NP> + ProblemLayout,
+    Q: CoefficientForm<NX, NF, NP, NC> + ProblemLayout,
 {
-    let mut f = SVector::<f64, NF>::zeros();
-    match row_equations::<Q, NX, NF, NP>(x, row, globals, &mut f) {
+    let (mut f, mut j) = (SVector::<f64, NF>::zeros(), SMatrix::<f64, NF, NX>::zeros());
+    match row_equations::<Q, NX, NF, NP, NC>(x, row, globals, &mut f, &mut j) {
         Some(epr) => largest(&f, epr),
         None => f64::INFINITY,
     }
@@ -154,15 +180,12 @@ fn largest<const NF: usize>(f: &SVector<f64, NF>, epr: usize) -> f64 {
 /// Gauss-Newton iterations of the local optimization.
 const LO_ITERATIONS: usize = 10;
 
+/// Relative step, and relative fall of the robust cost, below which the local optimization
+/// stops (PoseLib's step tolerance).
+const LO_TOLERANCE: f64 = 1e-8;
+
 /// Relative step of the forward differences of the local optimization's error gradients.
 const DIFFERENCE_STEP: f64 = 1e-7;
-
-/// A difference step whose unsigned error changes by at most this fraction of the error keeps
-/// the error's sign ([`Samples::signed_error_gradient`]). A crossing of zero with a true change
-/// `d` (at least the error `e` in size) shows as an apparent change of `-(2e + d)`, so only a
-/// crossing with `d` within 1 % of `-2e` passes for a kept sign; it then gives one row's
-/// gradient component a wrong size for one iteration, which the step halvings absorb.
-const SAME_SIGN: f64 = 0.01;
 
 /// Halvings of a local optimization step that does not lower the robust cost, before giving up.
 const HALVINGS: i32 = 4;
@@ -274,7 +297,11 @@ where
             }) else {
                 break;
             };
-            let small = (moved - x).amax() <= 1e-12 * (1.0 + x.amax());
+            // Converged when the step or the cost's relative fall is below PoseLib's step
+            // tolerance: later iterations of the reweighted steps move the estimate far below
+            // the noise and only cost time (on `robust_grp.py`, 1.8x less time per call at
+            // 0 % outliers, the same success and median errors; BENCHMARKS.md 2026-12-04).
+            let small = (moved - x).amax() <= LO_TOLERANCE * (1.0 + x.amax()) || current - next <= LO_TOLERANCE * current;
             (x, current) = (moved, next);
             if small {
                 break;
@@ -288,42 +315,38 @@ impl<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, 
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
-    /// The problem's error of `row` at `x` with the sign of the row's largest equation, so that
-    /// it is a smooth residual through zero; `None` where it is not finite.
-    fn signed_error(&self, x: &SVector<f64, NX>, row: &[f64]) -> Option<f64> {
-        let e = self.solver.problem().row_error(x, row, self.globals);
-        let mut f = SVector::<f64, NF>::zeros();
-        let epr = row_equations::<S::Tracked, NX, NF, NP>(x, row, self.globals, &mut f)?;
-        let k = (0..epr).max_by(|a, b| f[*a].abs().total_cmp(&f[*b].abs()))?;
-        e.is_finite().then_some(if f[k] < 0.0 { -e } else { e })
-    }
-
-    /// [`Samples::signed_error`] and its gradient by forward differences. The error's own
-    /// gradient, not that of the algebraic row equations scaled to it: a geometric error
-    /// divides by a norm that moves with the unknowns (the baseline's length in a
-    /// generalized epipolar error), and Gauss-Newton on the scaled equations with that scale
-    /// frozen stops at a point biased along it (the translation's length), short of the
-    /// error's minimum.
+    /// The problem's error of `row` at `x` as a smooth residual through zero, and its gradient
+    /// by forward differences: the error's own gradient, not that of the algebraic row
+    /// equations scaled to it (a geometric error divides by a norm that moves with the
+    /// unknowns, the baseline's length in a generalized epipolar error, and Gauss-Newton on
+    /// the scaled equations with that scale frozen stops at a point biased along it, short of
+    /// the error's minimum). `None` where it is not finite.
     ///
-    /// The sign needs the row's equations, which without a one-row kernel means the whole
-    /// system's residual (a few times the error's own cost), so it is taken once, at `x`: a
-    /// difference step keeps it unless the error crosses zero on the way. Where the unsigned
-    /// error's apparent change is not well below the error (a crossing, [`SAME_SIGN`], and
-    /// always on noise-free data, whose errors are about zero) the sign is taken again at the
-    /// moved point.
+    /// The sign is that of the row's largest equation, from one call of the compiled one-row
+    /// kernel ([`row_equations`]): at `x` its value, and at each difference step its first-order
+    /// change along the Jacobian row, so the sign follows the equation through zero without
+    /// evaluating it again (the second-order term at a step of [`DIFFERENCE_STEP`] matters only
+    /// for an equation within about `1e-14` of zero, where the error itself is that small).
     fn signed_error_gradient(&self, x: &SVector<f64, NX>, row: &[f64]) -> Option<(f64, SVector<f64, NX>)> {
-        let e = self.signed_error(x, row)?;
-        let (sign, size) = (e.signum(), e.abs());
         let problem = self.solver.problem();
-        let mut grad = SVector::<f64, NX>::zeros();
-        for k in 0..NX {
-            let step = DIFFERENCE_STEP * (1.0 + x[k].abs());
-            let mut moved = *x;
-            moved[k] += step;
-            let change = problem.row_error(&moved, row, self.globals) - size;
-            grad[k] = if change.abs() <= SAME_SIGN * size { sign * change / step } else { (self.signed_error(&moved, row)? - e) / step };
+        let size = problem.row_error(x, row, self.globals);
+        let (mut f, mut j) = (SVector::<f64, NF>::zeros(), SMatrix::<f64, NF, NX>::zeros());
+        let epr = row_equations::<S::Tracked, NX, NF, NP, NC>(x, row, self.globals, &mut f, &mut j)?;
+        let k = (0..epr).max_by(|a, b| f[*a].abs().total_cmp(&f[*b].abs()))?;
+        if !size.is_finite() {
+            return None;
         }
-        Some((e, grad))
+        let signed = |value: f64, error: f64| if value < 0.0 { -error } else { error };
+        let e = signed(f[k], size);
+        let mut grad = SVector::<f64, NX>::zeros();
+        for m in 0..NX {
+            let step = DIFFERENCE_STEP * (1.0 + x[m].abs());
+            let mut moved = *x;
+            moved[m] += step;
+            let error = problem.row_error(&moved, row, self.globals);
+            grad[m] = (signed(f[k] + j[(k, m)] * step, error) - e) / step;
+        }
+        grad.iter().all(|g| g.is_finite()).then_some((e, grad))
     }
 }
 

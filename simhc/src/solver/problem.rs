@@ -142,7 +142,7 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// of the row's equations ([`super::estimate::row_residual`]); a geometric error (angular,
     /// Sampson) makes the threshold mean the same for every correspondence.
     fn row_error(&self, x: &SVector<f64, NX>, row: &[f64], globals: &[f64]) -> f64 {
-        super::estimate::row_residual::<Self::Tracked, NX, NF, NP>(x, row, globals)
+        super::estimate::row_residual::<Self::Tracked, NX, NF, NP, NC>(x, row, globals)
     }
 }
 

@@ -133,6 +133,22 @@ impl ParamLanes {
                 };
                 __SimhcRowKernels::__row_param_lanes(x, shared, p, dp, f, j, d);
             }
+            #[inline]
+            fn row_equations(self, x: &[f64; #nx], p: &[f64], f: &mut [f64], j: &mut [f64]) -> bool {
+                let (Ok(p), Ok(f), Ok(j)) = (
+                    <&[f64; #k_t]>::try_from(p),
+                    <&mut [f64; #epr_t]>::try_from(f),
+                    <&mut [f64; #ej]>::try_from(j),
+                ) else {
+                    return false;
+                };
+                // One row in one `f64` lane; `dp = 0` makes `d` zero, unused.
+                let mut shared = [0.0f64; #ns_t];
+                __SimhcRowKernels::__row_param_shared(x, &mut shared);
+                let (dp, mut d) = ([0.0f64; #k_t], [0.0f64; #epr_t]);
+                __SimhcRowKernels::__row_param_lanes(x, &shared, p, &dp, f, j, &mut d);
+                true
+            }
         };
         (body, doc)
     }

@@ -1517,6 +1517,178 @@ pub mod grps {
             j[7] = t114;
             d[0] = t341;
         }
+        /// Row kernel from the row's parameters `p` and the shared part `shared`, one path per lane: residuals `f` and Jacobian rows `j` only.
+        #[inline(always)]
+        #[allow(clippy::all, unused_variables)]
+        fn __row_param_fj<S: ::simhc::lanes::Lanes>(
+            x: &[S; 8],
+            shared: &[S; 9],
+            p: &[S; 12],
+            f: &mut [S; 1],
+            j: &mut [S; 8],
+        ) {
+            let x_q_0 = x[0];
+            let x_q_1 = x[1];
+            let x_q_2 = x[2];
+            let x_q_3 = x[3];
+            let x_t_0 = x[4];
+            let x_t_1 = x[5];
+            let x_t_2 = x[6];
+            let x_s = x[7];
+            let p_row0_f_0 = p[0];
+            let p_row0_f_1 = p[1];
+            let p_row0_f_2 = p[2];
+            let p_row0_v_0 = p[3];
+            let p_row0_v_1 = p[4];
+            let p_row0_v_2 = p[5];
+            let p_row0_fp_0 = p[6];
+            let p_row0_fp_1 = p[7];
+            let p_row0_fp_2 = p[8];
+            let p_row0_vp_0 = p[9];
+            let p_row0_vp_1 = p[10];
+            let p_row0_vp_2 = p[11];
+            let cf_0 = shared[0];
+            let cf_4 = shared[4];
+            let cf_8 = shared[8];
+            let cf_1 = shared[1];
+            let cf_2 = shared[2];
+            let cf_3 = shared[3];
+            let cf_5 = shared[5];
+            let cf_6 = shared[6];
+            let cf_7 = shared[7];
+            let t31 = p_row0_fp_1 * cf_1;
+            let t32 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, cf_0, t31);
+            let t34 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, cf_2, t32);
+            let t36 = p_row0_fp_1 * cf_4;
+            let t37 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, cf_3, t36);
+            let t39 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, cf_5, t37);
+            let t41 = p_row0_fp_1 * cf_7;
+            let t42 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_0, cf_6, t41);
+            let t44 = ::simhc::lanes::Lanes::mul_add(p_row0_fp_2, cf_8, t42);
+            let t46 = p_row0_f_2 * t39;
+            let t47 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_1, t44, t46);
+            let t49 = p_row0_f_0 * t44;
+            let t50 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_2, t34, t49);
+            let t52 = p_row0_f_1 * t34;
+            let t53 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_0, t39, t52);
+            let t55 = x_t_1 * t50;
+            let t56 = ::simhc::lanes::Lanes::mul_add(x_t_0, t47, t55);
+            let t58 = ::simhc::lanes::Lanes::mul_add(x_t_2, t53, t56);
+            let t59 = p_row0_fp_1 * p_row0_vp_2;
+            let t61 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, p_row0_vp_1, t59);
+            let t63 = p_row0_fp_2 * p_row0_vp_0;
+            let t64 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, p_row0_vp_2, t63);
+            let t65 = p_row0_fp_0 * p_row0_vp_1;
+            let t67 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, p_row0_vp_0, t65);
+            let t69 = cf_1 * t64;
+            let t70 = ::simhc::lanes::Lanes::mul_add(cf_0, t61, t69);
+            let t72 = ::simhc::lanes::Lanes::mul_add(cf_2, t67, t70);
+            let t74 = cf_4 * t64;
+            let t75 = ::simhc::lanes::Lanes::mul_add(cf_3, t61, t74);
+            let t77 = ::simhc::lanes::Lanes::mul_add(cf_5, t67, t75);
+            let t79 = cf_7 * t64;
+            let t80 = ::simhc::lanes::Lanes::mul_add(cf_6, t61, t79);
+            let t82 = ::simhc::lanes::Lanes::mul_add(cf_8, t67, t80);
+            let t84 = p_row0_f_1 * t77;
+            let t85 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t72, t84);
+            let t87 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t82, t85);
+            let t89 = ::simhc::lanes::Lanes::neg_mul_add(x_s, t87, t58);
+            let t90 = p_row0_v_2 * t39;
+            let t92 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_1, t44, t90);
+            let t94 = p_row0_v_0 * t44;
+            let t95 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_2, t34, t94);
+            let t96 = p_row0_v_1 * t34;
+            let t98 = ::simhc::lanes::Lanes::mul_sub(p_row0_v_0, t39, t96);
+            let t100 = p_row0_f_1 * t95;
+            let t101 = ::simhc::lanes::Lanes::mul_add(p_row0_f_0, t92, t100);
+            let t103 = ::simhc::lanes::Lanes::mul_add(p_row0_f_2, t98, t101);
+            let t104 = t89 + t103;
+            let t106 = p_row0_f_2 * p_row0_v_1;
+            let t107 = p_row0_f_1 * p_row0_v_0;
+            let t109 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_1, p_row0_v_2, t106);
+            let t111 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_0, p_row0_v_1, t107);
+            let t112 = p_row0_f_0 * p_row0_v_2;
+            let t113 = ::simhc::lanes::Lanes::mul_sub(p_row0_f_2, p_row0_v_0, t112);
+            let t114 = -t87;
+            let t115 = x_s * p_row0_f_2;
+            let t116 = x_s * p_row0_f_1;
+            let t117 = x_s * p_row0_f_0;
+            let t118 = t67 * t115;
+            let t119 = t64 * t115;
+            let t120 = t61 * t115;
+            let t121 = t67 * t116;
+            let t122 = t64 * t116;
+            let t123 = t61 * t116;
+            let t124 = t67 * t117;
+            let t125 = t64 * t117;
+            let t126 = t61 * t117;
+            let t128 = ::simhc::lanes::Lanes::neg_mul_add(x_t_2, p_row0_f_1, t109);
+            let t130 = ::simhc::lanes::Lanes::mul_add(x_t_2, p_row0_f_0, t113);
+            let t132 = ::simhc::lanes::Lanes::neg_mul_add(x_t_1, p_row0_f_0, t111);
+            let t134 = ::simhc::lanes::Lanes::mul_add(x_t_1, p_row0_f_2, t128);
+            let t136 = ::simhc::lanes::Lanes::neg_mul_add(x_t_0, p_row0_f_2, t130);
+            let t138 = ::simhc::lanes::Lanes::mul_add(x_t_0, p_row0_f_1, t132);
+            let t140 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t138, t118);
+            let t142 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t138, t119);
+            let t144 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t138, t120);
+            let t146 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t136, t121);
+            let t148 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t136, t122);
+            let t150 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t136, t123);
+            let t152 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_2, t134, t124);
+            let t154 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_1, t134, t125);
+            let t156 = ::simhc::lanes::Lanes::mul_sub(p_row0_fp_0, t134, t126);
+            let t157 = t142.scale(2.0);
+            let t158 = t144.scale(2.0);
+            let t159 = t146.scale(2.0);
+            let t160 = t150.scale(2.0);
+            let t161 = t152.scale(2.0);
+            let t162 = t154.scale(2.0);
+            let t163 = t140 + t148;
+            let t164 = t148 - t140;
+            let t165 = t157 + t159;
+            let t166 = t157 - t159;
+            let t167 = t158 + t161;
+            let t168 = t161 - t158;
+            let t169 = t160 + t162;
+            let t170 = t160 - t162;
+            let t171 = t164 - t156;
+            let t172 = t156 + t164;
+            let t173 = t156 + t163;
+            let t174 = t156 - t163;
+            let t179 = x_q_2 * t168;
+            let t180 = ::simhc::lanes::Lanes::mul_add(x_q_1, t166, t179);
+            let t181 = x_q_0 * t168;
+            let t182 = ::simhc::lanes::Lanes::mul_add(x_q_3, t165, t181);
+            let t183 = x_q_3 * t167;
+            let t184 = ::simhc::lanes::Lanes::mul_add(x_q_0, t166, t183);
+            let t185 = x_q_1 * t167;
+            let t186 = ::simhc::lanes::Lanes::mul_add(x_q_2, t165, t185);
+            let t188 = ::simhc::lanes::Lanes::mul_add(x_q_3, t170, t180);
+            let t190 = ::simhc::lanes::Lanes::mul_add(x_q_0, t170, t186);
+            let t192 = ::simhc::lanes::Lanes::mul_add(x_q_2, t169, t184);
+            let t194 = ::simhc::lanes::Lanes::mul_add(x_q_1, t169, t182);
+            let t195 = x_q_3 * t172;
+            let t196 = t190 - t195;
+            let t197 = t196 - t195;
+            let t198 = x_q_2 * t171;
+            let t199 = t194 + t198;
+            let t200 = t198 + t199;
+            let t201 = x_q_1 * t174;
+            let t202 = t192 + t201;
+            let t203 = t201 + t202;
+            let t204 = x_q_0 * t173;
+            let t205 = t188 + t204;
+            let t206 = t204 + t205;
+            f[0] = t104;
+            j[0] = t206;
+            j[1] = t203;
+            j[2] = t200;
+            j[3] = t197;
+            j[4] = t47;
+            j[5] = t50;
+            j[6] = t53;
+            j[7] = t114;
+        }
     }
     /// `grps7`: 8 equations in 8 unknowns with 84 parameters (7 rows).
     #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -9884,8 +10056,7 @@ pub mod grps {
             };
             let mut shared = [0.0f64; 9];
             __SimhcRowKernels::__row_param_shared(x, &mut shared);
-            let (dp, mut d) = ([0.0f64; 12], [0.0f64; 1]);
-            __SimhcRowKernels::__row_param_lanes(x, &shared, p, &dp, f, j, &mut d);
+            __SimhcRowKernels::__row_param_fj(x, &shared, p, f, j);
             true
         }
     }
@@ -19353,8 +19524,7 @@ pub mod grps {
             };
             let mut shared = [0.0f64; 9];
             __SimhcRowKernels::__row_param_shared(x, &mut shared);
-            let (dp, mut d) = ([0.0f64; 12], [0.0f64; 1]);
-            __SimhcRowKernels::__row_param_lanes(x, &shared, p, &dp, f, j, &mut d);
+            __SimhcRowKernels::__row_param_fj(x, &shared, p, f, j);
             true
         }
     }

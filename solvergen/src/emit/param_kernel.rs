@@ -43,6 +43,9 @@ pub(super) fn param_lanes(one_row: &Unexpanded, shape: RowShape, row_len: usize)
         |entries: &Outputs| -> Outputs { entries.iter().map(|(t, id)| (t.clone(), hoisted.map[id.0 as usize].unwrap_or(*id))).collect() };
     let (fr, jr, dr) = (remap(&f), remap(&j), remap(&d));
     let body = render_lanes(row_dag, vars, LeafArrays::SHARED_SLOTS, &[(quote!(f), &fr), (quote!(j), &jr), (quote!(d), &dr)]);
+    // The same kernel without `dF/dp * dp`, for one row in `f64` (`row_equations`): the forward
+    // pass for `d` is not dead code there, a zero `dp` does not fold away in floating point.
+    let body_fj = render_lanes(row_dag, vars, LeafArrays::SHARED_SLOTS, &[(quote!(f), &fr), (quote!(j), &jr)]);
     let shared_entries: Outputs = shared.iter().enumerate().map(|(slot, id)| (n(slot).into_token_stream(), *id)).collect();
     let shared_body = render_lanes(&dag, vars, LeafArrays::ARGUMENTS, &[(quote!(out), &shared_entries)]);
     let ns = shared.len();
@@ -71,13 +74,25 @@ pub(super) fn param_lanes(one_row: &Unexpanded, shape: RowShape, row_len: usize)
         ) {
             #body
         }
+        #[doc = " Row kernel from the row's parameters `p` and the shared part `shared`, one path per lane: residuals `f` and Jacobian rows `j` only."]
+        #[inline(always)]
+        #[allow(clippy::all, unused_variables)]
+        fn __row_param_fj<S: ::simhc::lanes::Lanes>(
+            x: &[S; #nx],
+            shared: &[S; #ns_t],
+            p: &[S; #k_t],
+            f: &mut [S; #epr_t],
+            j: &mut [S; #ej],
+        ) {
+            #body_fj
+        }
     };
     ParamLanes { kernel, ops, nx: shape.nx, k, epr, ej: epr * shape.nx, row_len, shared: ns }
 }
 
 /// The parameter row kernel of [`param_lanes`] and what its trait items need.
 pub(super) struct ParamLanes {
-    /// The kernel items (`__row_param_shared`, `__row_param_lanes`).
+    /// The kernel items (`__row_param_shared`, `__row_param_lanes`, `__row_param_fj`).
     pub kernel: TokenStream,
     /// Estimated operations per row (see [`param_lanes`]).
     pub ops: usize,
@@ -142,11 +157,9 @@ impl ParamLanes {
                 ) else {
                     return false;
                 };
-                // One row in one `f64` lane; `dp = 0` makes `d` zero, unused.
                 let mut shared = [0.0f64; #ns_t];
                 __SimhcRowKernels::__row_param_shared(x, &mut shared);
-                let (dp, mut d) = ([0.0f64; #k_t], [0.0f64; #epr_t]);
-                __SimhcRowKernels::__row_param_lanes(x, &shared, p, &dp, f, j, &mut d);
+                __SimhcRowKernels::__row_param_fj(x, &shared, p, f, j);
                 true
             }
         };

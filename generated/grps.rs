@@ -8609,20 +8609,6 @@ pub mod grps {
             out[6] = t3360;
         }
     }
-    /// The generic minimum-norm online simulator (declare `simulator = custom` to
-    /// provide a geometric one instead).
-    impl ::simhc::OnlineSimulator<8, 8, 84> for Grps7 {
-        fn simulate(
-            &self,
-            x0: &::simhc::__private::nalgebra::SVector<f64, 8>,
-            p: &::simhc::__private::nalgebra::SVector<f64, 84>,
-        ) -> ::core::result::Result<
-            ::simhc::__private::nalgebra::SVector<f64, 84>,
-            ::simhc::SimulatorError,
-        > {
-            ::simhc::MinNormSimulator::<Self>::new().run::<8, 8, 84>(x0, p)
-        }
-    }
     #[allow(clippy::all, unused_variables)]
     impl ::simhc::CoefficientForm<8, 8, 84, 266> for Grps7 {
         #[inline]
@@ -17917,20 +17903,6 @@ pub mod grps {
             out[5] = t2885;
             out[6] = t3360;
             out[7] = t3835;
-        }
-    }
-    /// The generic minimum-norm online simulator (declare `simulator = custom` to
-    /// provide a geometric one instead).
-    impl ::simhc::OnlineSimulator<8, 9, 96> for Grps8 {
-        fn simulate(
-            &self,
-            x0: &::simhc::__private::nalgebra::SVector<f64, 8>,
-            p: &::simhc::__private::nalgebra::SVector<f64, 96>,
-        ) -> ::core::result::Result<
-            ::simhc::__private::nalgebra::SVector<f64, 96>,
-            ::simhc::SimulatorError,
-        > {
-            ::simhc::MinNormSimulator::<Self>::new().run::<8, 9, 96>(x0, p)
         }
     }
     #[allow(clippy::all, unused_variables)]

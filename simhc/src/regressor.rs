@@ -108,6 +108,13 @@ pub enum RegressorError {
     /// ([`crate::pipeline::InputRows::write`]).
     #[error("no input rows for these parameters (wrong length, a non-finite value or degenerate data)")]
     NoInputRows,
+    /// A start hypothesis of the network's outputs decodes to no unknowns
+    /// ([`crate::pipeline::OutputDecoding::decode`]: a degenerate rotation, a non-finite value).
+    #[error("start hypothesis {hypothesis} of the network decodes to no unknowns (degenerate or not finite)")]
+    NoDecoding {
+        /// The hypothesis, in the network's order.
+        hypothesis: usize,
+    },
 }
 
 /// One dense layer `y = b + x W` with `W` stored row-major `[inputs][outputs]`.

@@ -182,3 +182,52 @@ fn a_learned_start_with_hypotheses_returns_the_best_scored_one() {
     // 15 outputs are neither 7, nor scored blocks of 8, nor blocks of 7.
     assert!(LearnedStart::new(network(vec![0.1; 15]), layout).is_err());
 }
+
+/// A network that outputs another representation: two scored hypotheses of 3 numbers
+/// `[angle, tx, ty]`, decoded into the 7 unknowns `[q, t]` (a rotation about z and `t_z = 0`).
+/// `predict` decodes the better-scored one without allocating; a block the decoding refuses is
+/// `NoDecoding` naming the hypothesis; a network of blocks of the unknowns' width is refused.
+#[test]
+fn a_learned_start_with_its_own_output_decoding_decodes_the_best_hypothesis() {
+    use simhc::pipeline::{LayoutRows, LearnedStart, OutputDecoding};
+    use simhc::regressor::{DenseLayer, FoldedNetwork, HypothesisBlocks, RegressorError};
+    struct AngleAndShift;
+    impl OutputDecoding for AngleAndShift {
+        fn width(&self) -> usize {
+            3
+        }
+        fn decode(&self, out: &[f64], x: &mut [f64]) -> bool {
+            if out.len() != 3 || x.len() != 7 || out[0].abs() > 10.0 {
+                return false;
+            }
+            let h = out[0] / 2.0;
+            x.copy_from_slice(&[h.cos(), 0.0, 0.0, h.sin(), out[1], out[2], 0.0]);
+            true
+        }
+    }
+    let layout = quat_and_vector_layout(2);
+    let network = |bias: Vec<f32>| {
+        let point = DenseLayer::new(3, 4, vec![0.0; 12], vec![0.0; 4]).unwrap();
+        let head = DenseLayer::new(4, bias.len(), vec![0.0; 4 * bias.len()], bias).unwrap();
+        FoldedNetwork::new(3, vec![point], vec![head], false).unwrap()
+    };
+    let p = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+    // Scores 0.5 and 1.5: the second block wins.
+    let start =
+        LearnedStart::with_outputs(network(vec![0.0, 9.0, 9.0, 1.0, 2.0, 3.0, 0.5, 1.5]), layout, LayoutRows(layout), AngleAndShift)
+            .expect("blocks of 3 and their scores");
+    assert_eq!(start.blocks(), HypothesisBlocks { width: 3, count: 2, scored: true });
+    let mut x = [0.0; 7];
+    let (result, allocations) = counted(|| start.predict(&p, &mut x));
+    result.expect("a prediction");
+    assert_eq!(allocations, 0);
+    let expect = [0.5f64.cos(), 0.0, 0.0, 0.5f64.sin(), 2.0, 3.0, 0.0];
+    assert!(x.iter().zip(&expect).all(|(a, b)| (a - b).abs() < 1e-6), "{x:?}");
+    // The winner decodes to nothing (an angle the decoding refuses).
+    let refused =
+        LearnedStart::with_outputs(network(vec![0.0, 9.0, 9.0, 50.0, 2.0, 3.0, 0.5, 1.5]), layout, LayoutRows(layout), AngleAndShift)
+            .unwrap();
+    assert_eq!(refused.predict(&p, &mut x), Err(RegressorError::NoDecoding { hypothesis: 1 }));
+    // Seven outputs are not blocks of 3 (and scores).
+    assert!(LearnedStart::with_outputs(network(vec![0.1; 7]), layout, LayoutRows(layout), AngleAndShift).is_err());
+}

@@ -30,7 +30,7 @@ fn grps_paths(seed: u64) -> Vec<(GrpsLine, SVector<f64, 8>)> {
         let x0 = grps::unknowns_of(&r0, &perturb_translation(&scene.translation, 0.1, &mut rng), perturb_scale(scene.scale, 0.1, &mut rng));
         let Some(rows) = grps::rows_of::<8>(&scene.correspondences) else { continue };
         let p1 = grps::Grps8::params(&rows);
-        let Ok(p0) = grps::Grps8.simulate(&x0, &p1) else { continue };
+        let Ok(p0) = simhc::MinNormSimulator::<grps::Grps8>::new().simulate(&x0, &p1) else { continue };
         out.push((GrpsLine::new::<8, 9>(&p0, &p1), x0));
     }
     out

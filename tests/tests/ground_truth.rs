@@ -50,7 +50,7 @@ fn generic_simulator_makes_a_perturbed_start_exact() {
     let r0 = metrics::random_rotation_perturbation(&scene.rotation, 20.0, &mut rng);
     let x0 = grps::unknowns_of(&r0, &(scene.translation * 1.1), scene.scale * 0.9);
     let p = grps::Grps8::params(&grps::rows_of::<8>(&scene.correspondences).expect("8 rows"));
-    let p0 = grps::Grps8.simulate(&x0, &p).expect("simulator converges");
+    let p0 = simhc::MinNormSimulator::<grps::Grps8>::new().simulate(&x0, &p).expect("simulator converges");
     let mut f = SVector::<f64, 9>::zeros();
     grps::Grps8::residual(&x0, &p0, &mut f);
     assert!(f.amax() < 1e-12, "|F(x0; p0)| = {:e}", f.amax());

@@ -1,9 +1,11 @@
 //! Generalized relative pose and scale (GRPS): declaration, scene sampler, geometric simulator.
+pub mod declared;
 pub mod features;
 pub mod geometry;
 pub mod ransac;
 pub mod refine;
 pub mod scene;
+pub mod simulator;
 pub mod solver;
 mod system;
 
@@ -16,6 +18,21 @@ impl From<&GrpsCorrespondence> for Row {
     fn from(c: &GrpsCorrespondence) -> Self {
         Row { f: c.f.into(), v: c.v.into(), fp: c.fp.into(), vp: c.vp.into() }
     }
+}
+
+/// Numbers of one correspondence in a GRPS parameter vector: `[f, v, fp, vp]`, as declared.
+pub const ROW_LEN: usize = 12;
+
+/// The correspondence of one row of a GRPS parameter vector (`ROW_LEN` numbers in the declared
+/// order `[f, v, fp, vp]`; the inverse of `Row::from`).
+pub fn correspondence_of_row(row: &[f64]) -> GrpsCorrespondence {
+    let v3 = |k: usize| Vector3::new(row[3 * k], row[3 * k + 1], row[3 * k + 2]);
+    GrpsCorrespondence { f: v3(0), v: v3(1), fp: v3(2), vp: v3(3) }
+}
+
+/// The first `N` correspondences of a GRPS parameter vector (`N * ROW_LEN` numbers at least).
+pub fn correspondences_of<const N: usize>(p: &[f64]) -> [GrpsCorrespondence; N] {
+    std::array::from_fn(|i| correspondence_of_row(&p[i * ROW_LEN..(i + 1) * ROW_LEN]))
 }
 
 /// Packs `N` correspondences as the rows of a GRPS parameter vector (`N x 12` scalars), or

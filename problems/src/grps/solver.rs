@@ -56,7 +56,7 @@
 //! attempts are counted in the reported times.
 
 use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
-use super::geometry::{simulate_ray, triangulate_depths, validate, GrpsError};
+use super::geometry::{triangulate_depths, validate, GrpsError};
 use super::refine::{angular_residual, refine_pose, rotation_residual, translation_scale_for_rotation, LmOptions};
 use super::scene::GrpsCorrespondence;
 use super::{Grps7, Grps8, Row};
@@ -68,7 +68,7 @@ use simhc::pipeline::{
 };
 use simhc::regressor::{FoldedNetwork, HypothesisBlocks, RegressorError};
 use simhc::tracker::{solve_newton, NewtonOptions, TrackStats, TrackerOptions};
-use simhc::{CoefficientForm, MinNormSimulator, ParamDerivative, SimulatorError};
+use simhc::{CoefficientForm, MinNormSimulator, ParamDerivative};
 use std::cell::{Cell, OnceCell};
 use std::convert::Infallible;
 use std::time::{Duration, Instant};
@@ -643,16 +643,17 @@ impl GrpsSolver {
         run: impl FnOnce(GrpsPipeline<'_, P, N, NF, NP, NC>) -> R,
     ) -> R
     where
-        P: CoefficientForm<8, NF, NP, NC> + ParamDerivative<8, NF, NP> + simhc::ProblemLayout,
+        P: CoefficientForm<8, NF, NP, NC> + ParamDerivative<8, NF, NP> + simhc::ProblemLayout + simhc::OnlineSimulator<8, NF, NP> + Default,
     {
         let o = &self.options;
         let providers: Vec<Hypothesis> = hypotheses.kinds.iter().map(|&kind| Hypothesis { set: hypotheses, kind }).collect();
         let starts: Vec<&dyn StartProvider<[GrpsCorrespondence], 8>> =
             providers.iter().map(|h| h as &dyn StartProvider<[GrpsCorrespondence], 8>).collect();
-        let (target, geometric) = (FirstRows(params), GeometricSimulator(params));
+        // The instances' own simulator is the geometric one (`simulator = custom`).
+        let (target, geometric) = (FirstRows(params), Generic(P::default()));
         let generic = Generic(MinNormSimulator::<P>::new());
         let others: [&dyn StartSimulator<[GrpsCorrespondence], 8, NF, NP>; 1] = [&generic];
-        let validator = GrpsValidator { accept_angle: o.accept_angle, plausible_angle: o.plausible_angle, max_behind: o.max_behind };
+        let validator = GrpsValidator::of(o);
         let fallback = AllRootsFallback { base: hypotheses.base, newton: o.newton };
         let options = PipelineOptions {
             tracker: o.tracker,
@@ -751,7 +752,7 @@ impl GrpsSolver {
 
 /// The pipeline of GRPS on its first `N` correspondences.
 type GrpsPipeline<'a, P, const N: usize, const NF: usize, const NP: usize, const NC: usize> =
-    Pipeline<'a, P, [GrpsCorrespondence], FirstRows<N, NP>, GeometricSimulator<N, NP>, GrpsValidator, 8, NF, NP, NC>;
+    Pipeline<'a, P, [GrpsCorrespondence], FirstRows<N, NP>, Generic<P>, GrpsValidator, 8, NF, NP, NC>;
 
 /// The start hypotheses of one solve around `base` (module docs, step 3). The swapped
 /// prediction is computed once, by the first swapped hypothesis asked.
@@ -841,40 +842,31 @@ impl<const N: usize, const NP: usize> TargetParameters<[GrpsCorrespondence], NP>
     }
 }
 
-/// The paper's geometric simulator on the first `N` correspondences
-/// ([`geometric_start_params`]).
-struct GeometricSimulator<const N: usize, const NP: usize>(fn(&[Row; N]) -> SVector<f64, NP>);
-
-impl<const N: usize, const NF: usize, const NP: usize> StartSimulator<[GrpsCorrespondence], 8, NF, NP> for GeometricSimulator<N, NP> {
-    fn simulate(
-        &self,
-        corrs: &[GrpsCorrespondence],
-        x0: &SVector<f64, 8>,
-        _p: &SVector<f64, NP>,
-    ) -> Result<SVector<f64, NP>, SimulatorError> {
-        let start = GrpsPose::from_unknowns(x0).ok_or(SimulatorError::NonFinite)?;
-        geometric_start_params::<N, NP>(corrs, &start, self.0)
-    }
-}
-
-/// [`Validation`] on every correspondence, with the thresholds of the options.
-struct GrpsValidator {
+/// [`Validation`] on every correspondence, with the thresholds of the options: of a slice of
+/// correspondences (this solver) or of a parameter vector of 8
+/// ([`super::declared::Grps8Problem`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GrpsValidator {
     accept_angle: f64,
     plausible_angle: f64,
     max_behind: usize,
 }
 
-impl Validator<[GrpsCorrespondence], 8> for GrpsValidator {
-    type Check = Validation;
+impl GrpsValidator {
+    /// The thresholds of `options` ([`GrpsSolverOptions::accept_angle`],
+    /// [`GrpsSolverOptions::plausible_angle`], [`GrpsSolverOptions::max_behind`]).
+    pub fn of(options: &GrpsSolverOptions) -> Self {
+        Self { accept_angle: options.accept_angle, plausible_angle: options.plausible_angle, max_behind: options.max_behind }
+    }
 
-    fn check(&self, corrs: &[GrpsCorrespondence], x: &SVector<f64, 8>) -> Validation {
+    fn check_slice(&self, corrs: &[GrpsCorrespondence], x: &SVector<f64, 8>) -> Validation {
         match GrpsPose::from_unknowns(x) {
             Some(pose) => Validation::of(&pose, corrs),
             None => Validation { max_angle: f64::INFINITY, behind: corrs.len(), positive_scale: false },
         }
     }
 
-    fn verdict(&self, v: &Validation) -> Verdict {
+    fn verdict_of(&self, v: &Validation) -> Verdict {
         if v.passes(self.accept_angle, 0) {
             Verdict::Accept
         } else if v.passes(self.plausible_angle, self.max_behind) {
@@ -883,7 +875,31 @@ impl Validator<[GrpsCorrespondence], 8> for GrpsValidator {
             Verdict::Reject
         }
     }
+}
 
+impl Validator<[GrpsCorrespondence], 8> for GrpsValidator {
+    type Check = Validation;
+
+    fn check(&self, corrs: &[GrpsCorrespondence], x: &SVector<f64, 8>) -> Validation {
+        self.check_slice(corrs, x)
+    }
+    fn verdict(&self, v: &Validation) -> Verdict {
+        self.verdict_of(v)
+    }
+    fn better(&self, a: &Validation, b: &Validation) -> bool {
+        a.key() < b.key()
+    }
+}
+
+impl Validator<SVector<f64, 96>, 8> for GrpsValidator {
+    type Check = Validation;
+
+    fn check(&self, p: &SVector<f64, 96>, x: &SVector<f64, 8>) -> Validation {
+        self.check_slice(&super::correspondences_of::<8>(p.as_slice()), x)
+    }
+    fn verdict(&self, v: &Validation) -> Verdict {
+        self.verdict_of(v)
+    }
     fn better(&self, a: &Validation, b: &Validation) -> bool {
         a.key() < b.key()
     }
@@ -941,20 +957,6 @@ fn rows_array<const N: usize>(corrs: &[GrpsCorrespondence]) -> [Row; N] {
         *row = Row::from(c);
     }
     rows
-}
-
-/// The start parameters of the geometric simulator for `x0 = start`.
-pub fn geometric_start_params<const N: usize, const NP: usize>(
-    corrs: &[GrpsCorrespondence],
-    start: &GrpsPose,
-    params: fn(&[Row; N]) -> SVector<f64, NP>,
-) -> Result<SVector<f64, NP>, SimulatorError> {
-    let mut rows = rows_array::<N>(corrs);
-    for (row, c) in rows.iter_mut().zip(corrs) {
-        let (f, _) = simulate_ray(&start.rotation, &start.translation, start.scale, c).ok_or(SimulatorError::Singular)?;
-        row.f = f.into();
-    }
-    Ok(params(&rows))
 }
 
 /// The all-roots fallback ([`GrpsSolverOptions::all_roots_fallback`]): the best real root of

@@ -7,9 +7,14 @@
 //! the depths are eliminated by the triple product (paper eq. GRPS):
 //! `t . (f x R fp) - s f^T R [vp]x fp + f^T [v]x R fp = 0`; plus `q . q - 1 = 0`.
 
+//!
+//! Declared with `simulator = custom`: the online simulator of both instances is the paper's
+//! geometric one ([`super::simulator`]); the generic minimum-norm one stays available as
+//! `simhc::MinNormSimulator::<Grps7>`.
+
 use simhc::simhc_problem;
 
-#[simhc_problem]
+#[simhc_problem(simulator = custom)]
 pub mod grps {
     pub struct Unknowns {
         /// Rotation quaternion `[w, x, y, z]`.

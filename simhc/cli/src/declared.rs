@@ -222,6 +222,14 @@ where
 
     #[cfg(feature = "train")]
     fn train(&self, a: TrainArgs) -> Result<(), String> {
+        // The generic trainer fits the unknowns; a network of another output representation
+        // is trained by the problem's own trainer.
+        if self.problem.outputs().is_some() {
+            return Err(format!(
+                "train {}: the problem decodes its own network outputs (`DeclaredProblem::outputs`); the generic trainer fits the unknowns, so train its weights with the problem's own trainer",
+                S::NAME
+            ));
+        }
         let mut config = self.problem.training();
         config.samples = a.samples.unwrap_or(config.samples);
         config.train.epochs = a.epochs.unwrap_or(config.train.epochs);

@@ -36,5 +36,7 @@ pub fn simhc_app() -> App {
     App::new("simhc", "Simulator HC: regression + online simulator + single-path homotopy continuation")
         .register(Upnp)
         .register(Grps)
+        // GRPS through the generic assembly, beside the hand-assembled `grps` (same weights).
+        .register(Declared::new(simhc_problems::grps::declared::Grps8Problem::new()))
         .register(TrackerBench)
 }

@@ -110,7 +110,7 @@ pub fn grps_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
         let Some((scene, x0)) = perturbed_grps_start(&config, angle, &mut rng) else { continue };
         let Some(rows) = grps::rows_of::<8>(&scene.correspondences) else { continue };
         let p1 = grps::Grps8::params(&rows);
-        let Ok(p0) = grps::Grps8.simulate(&x0, &p1) else { continue };
+        let Ok(p0) = simhc::MinNormSimulator::<grps::Grps8>::new().simulate(&x0, &p1) else { continue };
         let ok = |x: &SVector<f64, 8>| grps_ok(x, &scene);
         let line = CoefficientLine::<grps::Grps8, f64, 96, 304>::new::<8, 9>(&p0, &p1);
         let param = ParameterHomotopy::<grps::Grps8, f64, 96>::new(p0, p1);
@@ -148,7 +148,7 @@ pub fn grps7_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
         let Some((scene, x0)) = perturbed_grps_start(&config, angle, &mut rng) else { continue };
         let Some(rows) = grps::rows_of::<7>(&scene.correspondences) else { continue };
         let p1 = grps::Grps7::params(&rows);
-        let Ok(p0) = grps::Grps7.simulate(&x0, &p1) else { continue };
+        let Ok(p0) = simhc::MinNormSimulator::<grps::Grps7>::new().simulate(&x0, &p1) else { continue };
         let ok = |x: &SVector<f64, 8>| grps_ok(x, &scene);
         let param = ParameterHomotopy::<grps::Grps7, f64, 84>::new(p0, p1);
         outcomes[0].push(run(&param, &x0, &TrackerOptions::default(), ok));

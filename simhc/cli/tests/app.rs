@@ -74,8 +74,23 @@ fn the_simhc_app_registers_the_built_ins() {
     let names = |verb: &str| -> Vec<String> {
         app.find_subcommand(verb).map(|c| c.get_subcommands().map(|s| s.get_name().to_string()).collect()).unwrap_or_default()
     };
-    assert_eq!(names("bench"), ["upnp", "grps", "tracker"]);
-    assert_eq!(names("train"), ["upnp", "grps"]);
-    assert_eq!(names("solve"), ["upnp", "grps"]);
-    assert_eq!(names("monodromy"), ["upnp", "grps"]);
+    // `grps8`: GRPS through the generic assembly (its `train` refuses, below).
+    assert_eq!(names("bench"), ["upnp", "grps", "grps8", "tracker"]);
+    assert_eq!(names("train"), ["upnp", "grps", "grps8"]);
+    assert_eq!(names("solve"), ["upnp", "grps", "grps8"]);
+    assert_eq!(names("monodromy"), ["upnp", "grps", "grps8"]);
+}
+
+/// `train` on a problem that decodes its own network outputs (GRPS through the generic
+/// assembly: a 6D rotation, not its quaternion) is refused with the problem's name, before any
+/// training, and writes no weights.
+#[cfg(feature = "train")]
+#[test]
+fn train_refuses_a_problem_with_its_own_output_decoding() {
+    let out = std::env::temp_dir().join(format!("simhc-app-grps8-{}.folded", std::process::id()));
+    let err = simhc_cli::simhc_app()
+        .run_from(["simhc", "train", "grps8", "--samples", "16", "--epochs", "1", "--out", out.to_str().unwrap()])
+        .expect_err("refused");
+    assert!(err.contains("grps8") && err.contains("decodes its own network outputs"), "{err}");
+    assert!(!out.exists(), "no weights written");
 }

@@ -7,12 +7,13 @@
 //! Rows: by default ([`LayoutRows`]) one per declared row, `[row parameters, global
 //! parameters]` ([`layout_row_width`] numbers); a problem without rows has one row of its
 //! globals. A problem whose raw parameters make poor features (ratios, distances, invariants)
-//! implements [`InputRows`] itself. Outputs: the unknown vector in layout order, once per
-//! start hypothesis (a network trained with several, winner-takes-all, outputs that many
-//! blocks; [`LearnedStart::hypotheses`]); a
+//! implements [`InputRows`] itself. Outputs: by default ([`LayoutOutputs`]) the unknown vector
+//! in layout order, once per start hypothesis (a network trained with several, winner-takes-all,
+//! outputs that many blocks; [`LearnedStart::hypotheses`]); a
 //! [`crate::FieldKind::Quat`] unknown (its loss was sign-invariant) and a field whose norm a
 //! parameter-free equation fixes (`t.dot(t) - 1`) are normalized here, the others come out in
-//! their own units.
+//! their own units. A network that outputs another representation (a 6D rotation, a log scale)
+//! comes with its own [`OutputDecoding`].
 
 use super::{StartError, StartProvider};
 use crate::layout::Layout;
@@ -89,6 +90,46 @@ pub fn layout_rows(layout: &Layout, p: &[f64], out: &mut [f32]) -> bool {
     out.iter().all(|v| v.is_finite())
 }
 
+/// How a learned start's outputs become unknowns: one start hypothesis is [`OutputDecoding::width`]
+/// numbers of the network's outputs. The default ([`LayoutOutputs`]) is the unknowns
+/// themselves; a problem whose unknowns make a poor regression target (a quaternion's sign, a
+/// scale over decades) trains its network on another representation and decodes it here
+/// (GRPS: a 6D rotation, the translation and the log of the scale, into `[q, t, s]`).
+pub trait OutputDecoding {
+    /// Numbers of one start hypothesis in the network's outputs.
+    fn width(&self) -> usize;
+    /// The unknowns `x` of one hypothesis `out` (`width()` numbers): `false` when it decodes to
+    /// none (a degenerate rotation, a value that is not finite); `x` is then unspecified.
+    fn decode(&self, out: &[f64], x: &mut [f64]) -> bool;
+}
+
+impl<D: OutputDecoding + ?Sized> OutputDecoding for &D {
+    fn width(&self) -> usize {
+        (**self).width()
+    }
+    fn decode(&self, out: &[f64], x: &mut [f64]) -> bool {
+        (**self).decode(out, x)
+    }
+}
+
+/// The default outputs: the unknowns in layout order, put on their spheres
+/// ([`Layout::normalize_unknowns`]: quaternions, fields whose norm an equation fixes).
+#[derive(Debug, Clone, Copy)]
+pub struct LayoutOutputs(pub Layout);
+
+impl OutputDecoding for LayoutOutputs {
+    fn width(&self) -> usize {
+        self.0.unknown_len()
+    }
+    fn decode(&self, out: &[f64], x: &mut [f64]) -> bool {
+        if out.len() != x.len() || x.len() != self.0.unknown_len() {
+            return false;
+        }
+        x.copy_from_slice(out);
+        self.0.normalize_unknowns(x)
+    }
+}
+
 /// Network input numbers (rows times width) a [`LearnedStart`] keeps on the stack (8 KiB).
 pub const STACK_INPUT: usize = 2048;
 
@@ -96,12 +137,13 @@ pub const STACK_INPUT: usize = 2048;
 pub const MAX_HYPOTHESES: usize = 8;
 
 /// A learned start for a declared problem whose pipeline data is its parameter vector, reading
-/// it through input rows `R`.
+/// it through input rows `R` and decoding its outputs with `D`.
 #[derive(Debug, Clone)]
-pub struct LearnedStart<R = LayoutRows> {
+pub struct LearnedStart<R = LayoutRows, D = LayoutOutputs> {
     network: FoldedNetwork,
     layout: Layout,
     rows: R,
+    outputs: D,
 }
 
 impl LearnedStart {
@@ -113,19 +155,27 @@ impl LearnedStart {
 }
 
 impl<R: InputRows> LearnedStart<R> {
-    /// The start of a `network` trained on input rows `rows` for a problem of this `layout`;
-    /// checks the widths.
+    /// The start of a `network` trained on input rows `rows` for a problem of this `layout`,
+    /// outputting its unknowns; checks the widths.
     pub fn with_rows(network: FoldedNetwork, layout: Layout, rows: R) -> Result<Self, RegressorError> {
+        Self::with_outputs(network, layout, rows, LayoutOutputs(layout))
+    }
+}
+
+impl<R: InputRows, D: OutputDecoding> LearnedStart<R, D> {
+    /// The start of a `network` trained on input rows `rows` for a problem of this `layout`,
+    /// whose outputs `outputs` decodes; checks the widths.
+    pub fn with_outputs(network: FoldedNetwork, layout: Layout, rows: R, outputs: D) -> Result<Self, RegressorError> {
         if network.input_width() != rows.shape().1 {
             return Err(RegressorError::Format("network input width differs from the input rows' width"));
         }
-        if HypothesisBlocks::of(network.output_width(), layout.unknown_len(), MAX_HYPOTHESES).is_none() {
-            return Err(RegressorError::Format("network outputs are not 1 to 8 blocks of the unknowns (and their scores)"));
+        if HypothesisBlocks::of(network.output_width(), outputs.width(), MAX_HYPOTHESES).is_none() {
+            return Err(RegressorError::Format("network outputs are not 1 to 8 blocks of a hypothesis (and their scores)"));
         }
         if network.normalizes_output() {
             return Err(RegressorError::Format("a generic learned start decodes its own outputs"));
         }
-        Ok(Self { network, layout, rows })
+        Ok(Self { network, layout, rows, outputs })
     }
 
     /// The network.
@@ -140,7 +190,7 @@ impl<R: InputRows> LearnedStart<R> {
 
     /// How the network's outputs hold its start hypotheses.
     pub fn blocks(&self) -> HypothesisBlocks {
-        HypothesisBlocks::of(self.network.output_width(), self.layout.unknown_len(), MAX_HYPOTHESES).expect("checked at construction")
+        HypothesisBlocks::of(self.network.output_width(), self.outputs.width(), MAX_HYPOTHESES).expect("checked at construction")
     }
 
     /// Start hypotheses per prediction (1 to [`MAX_HYPOTHESES`]).
@@ -148,10 +198,9 @@ impl<R: InputRows> LearnedStart<R> {
         self.blocks().count
     }
 
-    /// The predicted unknowns for parameters `p` (the best-scored hypothesis; the first of an
-    /// unscored network), quaternions and the fields whose norm an equation fixes put on their
-    /// spheres ([`Layout::normalize_unknowns`]). Without heap allocation for inputs of up to
-    /// [`STACK_INPUT`] numbers.
+    /// The predicted unknowns for parameters `p`: the best-scored hypothesis (the first of an
+    /// unscored network), decoded ([`LearnedStart::decode`]). Without heap allocation for
+    /// inputs of up to [`STACK_INPUT`] numbers.
     pub fn predict(&self, p: &[f64], x: &mut [f64]) -> Result<(), RegressorError> {
         let mut all = [0.0f64; crate::regressor::MAX_WIDTH];
         let (n, blocks) = (self.layout.unknown_len(), self.blocks());
@@ -162,13 +211,12 @@ impl<R: InputRows> LearnedStart<R> {
         self.predict_all(p, all)?;
         // Unscored: the network's first.
         let k = blocks.ranked::<MAX_HYPOTHESES>(all, |_| 0.0)[0];
-        x.copy_from_slice(&all[k * n..(k + 1) * n]);
-        Ok(())
+        self.decode(all, k, x)
     }
 
-    /// The network's outputs for parameters `p` ([`LearnedStart::blocks`]: the hypotheses in
-    /// the network's order, then their scores if scored), each hypothesis normalized as in
-    /// [`LearnedStart::predict`]. Without heap allocation, as `predict`.
+    /// The network's raw outputs for parameters `p` ([`LearnedStart::blocks`]: the hypotheses
+    /// in the network's order, then their scores if scored); [`LearnedStart::decode`] makes
+    /// unknowns of one. Without heap allocation, as `predict`.
     pub fn predict_all(&self, p: &[f64], out: &mut [f64]) -> Result<(), RegressorError> {
         let (count, width) = self.rows.shape();
         let len = count * width;
@@ -183,18 +231,28 @@ impl<R: InputRows> LearnedStart<R> {
             return Err(RegressorError::NoInputRows);
         }
         // `forward` rejects non-finite rows itself (`RegressorError::NonFinite`).
-        self.network.forward(rows, out)?;
+        self.network.forward(rows, out)
+    }
+
+    /// The unknowns `x` of hypothesis `k` of the outputs `out` of [`LearnedStart::predict_all`],
+    /// decoded by the start's [`OutputDecoding`] (by default put on their spheres).
+    pub fn decode(&self, out: &[f64], k: usize, x: &mut [f64]) -> Result<(), RegressorError> {
         let blocks = self.blocks();
-        let hypotheses = &mut out[..blocks.count * blocks.width];
-        if hypotheses.chunks_exact_mut(blocks.width).all(|x| self.layout.normalize_unknowns(x)) {
-            Ok(())
-        } else {
-            Err(RegressorError::NonFinite)
+        if out.len() != blocks.outputs() {
+            return Err(RegressorError::OutputLength { expected: blocks.outputs(), got: out.len() });
+        }
+        if x.len() != self.layout.unknown_len() {
+            return Err(RegressorError::OutputLength { expected: self.layout.unknown_len(), got: x.len() });
+        }
+        let block = out.get(k * blocks.width..(k + 1) * blocks.width).filter(|_| k < blocks.count);
+        match block {
+            Some(block) if self.outputs.decode(block, x) && x.iter().all(|v| v.is_finite()) => Ok(()),
+            _ => Err(RegressorError::NoDecoding { hypothesis: k }),
         }
     }
 }
 
-impl<R: InputRows, const NX: usize, const NP: usize> StartProvider<SVector<f64, NP>, NX> for LearnedStart<R> {
+impl<R: InputRows, D: OutputDecoding, const NX: usize, const NP: usize> StartProvider<SVector<f64, NP>, NX> for LearnedStart<R, D> {
     fn name(&self) -> &'static str {
         "learned"
     }

@@ -33,7 +33,7 @@ use std::time::Duration;
 use thiserror::Error;
 
 pub use executor::{Pipeline, PipelineOptions};
-pub use learned::{InputRows, LayoutRows, LearnedStart, ParameterVector, MAX_HYPOTHESES};
+pub use learned::{InputRows, LayoutOutputs, LayoutRows, LearnedStart, OutputDecoding, ParameterVector, MAX_HYPOTHESES};
 
 use crate::tracker::{TrackError, TrackStats};
 use crate::SimulatorError;

@@ -11,7 +11,7 @@
 //! the other ranks in pairs.
 
 use super::problem::DeclaredProblem;
-use crate::pipeline::{Attempt, InputRows, LearnedStart, Method, StartError, StartProvider, MAX_HYPOTHESES};
+use crate::pipeline::{Attempt, InputRows, LearnedStart, Method, OutputDecoding, StartError, StartProvider, MAX_HYPOTHESES};
 use crate::ProblemLayout;
 use nalgebra::SVector;
 use std::cell::RefCell;
@@ -74,8 +74,8 @@ pub fn ranked_schedule(base: &[Attempt], hypotheses: usize) -> Vec<Attempt> {
 
 /// The ranked hypotheses of one solve, computed at the first request and kept for the data
 /// they were computed from (a solve asks for them on one canonical data vector).
-pub struct RankedStarts<'a, S, R, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
-    learned: &'a LearnedStart<R>,
+pub struct RankedStarts<'a, S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+    learned: &'a LearnedStart<R, O>,
     problem: &'a S,
     ranked: RefCell<Option<Cached<NX, ND>>>,
     sizes: PhantomData<fn() -> [(); NF]>,
@@ -91,14 +91,15 @@ struct Ranked<const NX: usize> {
     count: usize,
 }
 
-impl<'a, S, R, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
-    RankedStarts<'a, S, R, NX, NF, NP, NC, ND>
+impl<'a, S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
+    RankedStarts<'a, S, R, O, NX, NF, NP, NC, ND>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
     R: InputRows,
+    O: OutputDecoding,
 {
     /// The hypotheses of `learned`, ranked on `problem`'s rows.
-    pub fn new(learned: &'a LearnedStart<R>, problem: &'a S) -> Self {
+    pub fn new(learned: &'a LearnedStart<R, O>, problem: &'a S) -> Self {
         Self { learned, problem, ranked: RefCell::new(None), sizes: PhantomData }
     }
 
@@ -123,22 +124,35 @@ where
     }
 
     /// Predicts every hypothesis and sorts them by the data's summed squared row errors
-    /// (stable: ties keep the network's order).
+    /// (stable: ties keep the network's order). A hypothesis that decodes to no unknowns is
+    /// left out; an error when none decodes.
     fn rank(&self, p: &SVector<f64, ND>) -> Result<Ranked<NX>, StartError> {
         let blocks = self.learned.blocks();
-        let count = blocks.count;
+        let fail = |e: crate::regressor::RegressorError| StartError { provider: "learned", reason: e.to_string() };
         let mut out = [0.0f64; crate::regressor::MAX_WIDTH];
-        self.learned
-            .predict_all(p.as_slice(), &mut out[..blocks.outputs()])
-            .map_err(|e| StartError { provider: "learned", reason: e.to_string() })?;
-        let hypothesis = |k: usize| SVector::<f64, NX>::from_column_slice(&out[k * NX..(k + 1) * NX]);
-        // An unscored network of several hypotheses: ranked by the data's residual.
-        let order = blocks.ranked::<MAX_HYPOTHESES>(&out, |k| self.score(&hypothesis(k), p));
-        let mut ranked = Ranked { x: [SVector::zeros(); MAX_HYPOTHESES], count };
-        for (x, &k) in ranked.x.iter_mut().zip(&order[..count]) {
-            *x = hypothesis(k);
+        let out = &mut out[..blocks.outputs()];
+        self.learned.predict_all(p.as_slice(), out).map_err(fail)?;
+        let mut decoded = [SVector::<f64, NX>::zeros(); MAX_HYPOTHESES];
+        let mut ok = [false; MAX_HYPOTHESES];
+        let mut last = None;
+        for k in 0..blocks.count {
+            match self.learned.decode(out, k, decoded[k].as_mut_slice()) {
+                Ok(()) => ok[k] = true,
+                Err(e) => last = Some(e),
+            }
         }
-        Ok(ranked)
+        // An unscored network of several hypotheses: ranked by the data's residual. One that
+        // does not decode ranks last and is dropped below.
+        let order = blocks.ranked::<MAX_HYPOTHESES>(out, |k| if ok[k] { self.score(&decoded[k], p) } else { f64::INFINITY });
+        let mut ranked = Ranked { x: [SVector::zeros(); MAX_HYPOTHESES], count: 0 };
+        for &k in order[..blocks.count].iter().filter(|&&k| ok[k]) {
+            ranked.x[ranked.count] = decoded[k];
+            ranked.count += 1;
+        }
+        match (ranked.count, last) {
+            (0, Some(e)) => Err(fail(e)),
+            _ => Ok(ranked),
+        }
     }
 
     /// Summed squared row errors of `x` over all rows of the data `p` (NaN counts as infinite).
@@ -156,18 +170,19 @@ where
 }
 
 /// The hypothesis of one rank as a start provider.
-pub struct RankedStart<'h, 'a, S, R, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+pub struct RankedStart<'h, 'a, S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
     /// The solve's hypotheses.
-    pub set: &'h RankedStarts<'a, S, R, NX, NF, NP, NC, ND>,
+    pub set: &'h RankedStarts<'a, S, R, O, NX, NF, NP, NC, ND>,
     /// Its rank (0: the best-ranked).
     pub rank: usize,
 }
 
-impl<S, R, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
-    for RankedStart<'_, '_, S, R, NX, NF, NP, NC, ND>
+impl<S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
+    for RankedStart<'_, '_, S, R, O, NX, NF, NP, NC, ND>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
     R: InputRows,
+    O: OutputDecoding,
 {
     fn name(&self) -> &'static str {
         if self.rank == 0 {

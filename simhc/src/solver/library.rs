@@ -23,8 +23,8 @@ use super::problem::{DeclaredProblem, OtherSimulator, OtherStart};
 use super::subsystem::AllRootsFallback;
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{
-    Attempt, AttemptError, Generic, InputRows, LayoutRows, LearnedStart, Method, Origin, Pipeline, PipelineError, PipelineOptions, Solved,
-    StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
+    Attempt, AttemptError, Generic, InputRows, LayoutOutputs, LayoutRows, LearnedStart, Method, Origin, OutputDecoding, Pipeline,
+    PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
 };
 use crate::regressor::{FoldedNetwork, RegressorError};
 use crate::ProblemLayout;
@@ -97,6 +97,42 @@ where
     }
 }
 
+/// A problem's learned-start output decoding: its own ([`DeclaredProblem::outputs`]) or the
+/// unknowns of its data layout. Shares the problem, as [`ProblemRows`].
+pub struct ProblemOutputs<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+    problem: Arc<S>,
+    sizes: PhantomData<fn() -> [(); NX]>,
+}
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> ProblemOutputs<S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    /// The output decoding of `problem`.
+    pub fn new(problem: Arc<S>) -> Self {
+        Self { problem, sizes: PhantomData }
+    }
+}
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> OutputDecoding
+    for ProblemOutputs<S, NX, NF, NP, NC, ND>
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    fn width(&self) -> usize {
+        match self.problem.outputs() {
+            Some(outputs) => outputs.width(),
+            None => LayoutOutputs(S::Data::LAYOUT).width(),
+        }
+    }
+    fn decode(&self, out: &[f64], x: &mut [f64]) -> bool {
+        match self.problem.outputs() {
+            Some(outputs) => outputs.decode(out, x),
+            None => LayoutOutputs(S::Data::LAYOUT).decode(out, x),
+        }
+    }
+}
+
 /// A validated solution.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Solution<C, const NX: usize> {
@@ -164,7 +200,7 @@ pub enum SolverError {
 
 /// The learned start of a solver.
 pub type SolverStart<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> =
-    LearnedStart<ProblemRows<S, NX, NF, NP, NC, ND>>;
+    LearnedStart<ProblemRows<S, NX, NF, NP, NC, ND>, ProblemOutputs<S, NX, NF, NP, NC, ND>>;
 
 /// The check of a validator `V` of the data.
 pub type Check<V, const NX: usize, const ND: usize> = <V as Validator<SVector<f64, ND>, NX>>::Check;
@@ -213,7 +249,8 @@ where
     /// [`Solver::with_weights`] for a problem shared with other holders.
     pub fn with_shared(problem: Arc<S>, weights: &[u8], noise: f64) -> Result<Self, SolverError> {
         let network = FoldedNetwork::from_bytes(weights)?;
-        let learned = LearnedStart::with_rows(network, S::Data::LAYOUT, ProblemRows::new(problem.clone()))?;
+        let learned =
+            LearnedStart::with_outputs(network, S::Data::LAYOUT, ProblemRows::new(problem.clone()), ProblemOutputs::new(problem.clone()))?;
         let validator = problem.validator(noise);
         let (other_starts, other_simulators) = (problem.other_starts(), problem.other_simulators());
         for (what, count) in [("other starts", other_starts.len()), ("other simulators", other_simulators.len())] {
@@ -286,7 +323,7 @@ where
         let target = FirstRows::<S::Tracked>::new();
         let simulator = Generic(S::Tracked::default());
         let set = RankedStarts::new(&self.learned, &*self.problem);
-        let ranked: [RankedStart<'_, '_, S, _, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
+        let ranked: [RankedStart<'_, '_, S, _, _, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
             std::array::from_fn(|rank| RankedStart { set: &set, rank });
         let refined: [Refined<'_, S, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
             std::array::from_fn(|rank| Refined { inner: &ranked[rank], problem: &*self.problem });

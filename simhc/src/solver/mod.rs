@@ -25,7 +25,9 @@ pub mod problem;
 pub mod subsystem;
 
 pub use estimate::{row_residual, EstimateError, EstimateInfo};
-pub use library::{sample_schedule, shipped_schedule, Outcome, ProblemRows, Solution, SolveError, Solver, SolverError, MAX_OTHERS};
+pub use library::{
+    sample_schedule, shipped_schedule, Outcome, ProblemOutputs, ProblemRows, Solution, SolveError, Solver, SolverError, MAX_OTHERS,
+};
 pub use parts::{Canon, FirstRows, FirstRowsError, RandomStart, Refined};
 pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, UnknownsMap};
 pub use subsystem::{AllRoots, AllRootsFallback, SquareSubsystem};

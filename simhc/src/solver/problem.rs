@@ -5,7 +5,7 @@
 //! `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same trait.
 
 use super::subsystem::AllRoots;
-use crate::pipeline::{InputRows, StartProvider, StartSimulator, Validator};
+use crate::pipeline::{InputRows, OutputDecoding, StartProvider, StartSimulator, Validator};
 use crate::training::LearnedStartConfig;
 use crate::{CoefficientForm, InstanceSizes, OnlineSimulator, ParamDerivative, ProblemLayout};
 use nalgebra::SVector;
@@ -82,6 +82,15 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// better features (distances, ratios, invariants); weights trained on one kind of rows do
     /// not load with another.
     fn input_rows(&self) -> Option<&dyn InputRows> {
+        None
+    }
+    /// How the learned start's outputs become unknowns (in the canonical frame, if
+    /// [`DeclaredProblem::canonicalize`] makes one). `None` (the default): the network outputs
+    /// the unknowns in layout order ([`crate::pipeline::LayoutOutputs`]), as `train` makes it.
+    /// Implement [`OutputDecoding`] when the network is trained on another representation (a
+    /// 6D rotation, the log of a scale); `train` then refuses the problem (its generic trainer
+    /// fits the unknowns), and the weights come from the problem's own trainer.
+    fn outputs(&self) -> Option<&dyn OutputDecoding> {
         None
     }
     /// Training settings of the learned start (`train` overrides samples, epochs and seed):

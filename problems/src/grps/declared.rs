@@ -12,7 +12,8 @@
 //!   [`super::simulator`]); the minimum-norm one is the other simulator;
 //! - the learned start reads [`GrpsFrame`] rows of the canonical data and decodes a 6D
 //!   rotation, the translation and the log scale ([`GrpsOutputs`]);
-//! - the other start is the network on the swapped views ([`SwappedStart`]).
+//! - the other starts are the network's predicted rotation with least-squares `(t, s)`, and the
+//!   network on the swapped views ([`PredictedStart`]).
 //!
 //! What the hand-assembled solver has and this one has not: the 65 rotated restarts, the
 //! least-squares `(t, s)` of a predicted rotation, and the ranking of hypotheses by
@@ -21,7 +22,7 @@
 //! [`Solver`]: simhc::solver::Solver
 
 use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
-use super::refine::angular_residual;
+use super::refine::{angular_residual, translation_scale_for_rotation};
 use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
 use super::solver::{GrpsPose, GrpsSolver, GrpsSolverOptions, GrpsValidator, GRPS_WEIGHTS};
 use super::{correspondence_of_row, correspondences_of, rows_of, unknowns_of, Grps8, ROW_LEN};
@@ -129,23 +130,45 @@ impl OutputDecoding for GrpsOutputs {
     }
 }
 
-/// The shipped network on the swapped views (view 2 first), its pose mapped back
-/// ([`swap_pose`]): a second, different input for the same network, as in
-/// [`GrpsSolver`]'s `Swapped` start. Allocates (a `Vec` of swapped correspondences).
-pub struct SwappedStart {
+/// A start from the shipped network beside the learned start's own hypotheses, as in
+/// [`GrpsSolver`]'s starts of the same names: the network on the swapped views (view 2 first,
+/// its pose mapped back by [`swap_pose`]: a second, different input), and the predicted or
+/// swapped rotation with its least-squares translation and scale. Tried only after the learned
+/// hypotheses; each runs the network again and allocates (a `Vec` of correspondences).
+pub struct PredictedStart {
     solver: GrpsSolver,
+    /// The network on the swapped views.
+    swapped: bool,
+    /// Only the rotation, with its least-squares `(t, s)` (`s > 0`).
+    least_squares: bool,
 }
 
-impl StartProvider<Params, 8> for SwappedStart {
+impl StartProvider<Params, 8> for PredictedStart {
     fn name(&self) -> &'static str {
-        "learned, swapped views"
+        match (self.swapped, self.least_squares) {
+            (false, false) => "learned",
+            (false, true) => "learned rotation, least-squares (t, s)",
+            (true, false) => "learned, swapped views",
+            (true, true) => "learned, swapped views, rotation with least-squares (t, s)",
+        }
     }
     fn start(&self, p: &Params) -> Result<Unknowns, StartError> {
-        let fail = |reason: String| StartError { provider: "swapped", reason };
-        let swapped = swap_views(&correspondences(p));
-        let pose = self.solver.predict(&swapped).map_err(|e| fail(e.to_string()))?;
-        let (r, t, s) = swap_pose(&pose.rotation, &pose.translation, pose.scale);
-        Ok(unknowns_of(&r, &t, s))
+        let fail = |reason: String| StartError { provider: "predicted", reason };
+        let corrs = correspondences(p);
+        let (r, t, s) = if self.swapped {
+            let pose = self.solver.predict(&swap_views(&corrs)).map_err(|e| fail(e.to_string()))?;
+            swap_pose(&pose.rotation, &pose.translation, pose.scale)
+        } else {
+            let pose = self.solver.predict(&corrs).map_err(|e| fail(e.to_string()))?;
+            (pose.rotation, pose.translation, pose.scale)
+        };
+        if !self.least_squares {
+            return Ok(unknowns_of(&r, &t, s));
+        }
+        match translation_scale_for_rotation(&r, &corrs) {
+            Some((t, s)) if s > 0.0 => Ok(unknowns_of(&r, &t, s)),
+            _ => Err(fail("no least-squares translation with a positive scale".into())),
+        }
     }
 }
 
@@ -236,11 +259,16 @@ impl DeclaredProblem<8, 9, 96, { Grps8::NC }, 96> for Grps8Problem {
         let moved = scene.transformed((&v1.0, &v1.1), (&v2.0, &v2.1), units);
         Some((params_of(&moved.correspondences)?, unknowns_of(&moved.rotation, &moved.translation, moved.scale)))
     }
+    /// The predicted rotation with least-squares `(t, s)`, the swapped prediction and its
+    /// rotation with least-squares `(t, s)` ([`PredictedStart`]).
     fn other_starts(&self) -> Vec<OtherStart<8, 96>> {
-        match GrpsSolver::new() {
-            Ok(solver) => vec![Box::new(SwappedStart { solver })],
-            Err(_) => Vec::new(),
-        }
+        let Ok(solver) = GrpsSolver::new() else { return Vec::new() };
+        [(false, true), (true, false), (true, true)]
+            .into_iter()
+            .map(|(swapped, least_squares)| {
+                Box::new(PredictedStart { solver: solver.clone(), swapped, least_squares }) as OtherStart<8, 96>
+            })
+            .collect()
     }
     fn other_simulators(&self) -> Vec<OtherSimulator<8, 9, 96, 96>> {
         vec![Box::new(Generic(MinNormSimulator::<Grps8>::new()))]

@@ -1,7 +1,8 @@
 //! GRPS through the runtime's generic assembly ([`Grps8Problem`] implementing
 //! `DeclaredProblem`): the library solver on the problem's sampler, on random frames and on
 //! permuted correspondences; the learned start's output decoding; and that the solve runs
-//! the instance's own (`simulator = custom`) geometric simulator.
+//! the instance's own (`simulator = custom`) geometric simulator; the dispatch of 7 and 8
+//! correspondences to their instances.
 
 use nalgebra::SVector;
 use rand::seq::SliceRandom;
@@ -9,9 +10,11 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Method, Origin, OutputDecoding};
 use simhc::solver::{DeclaredProblem, Solver};
-use simhc_problems::grps::declared::{Grps8Problem, GrpsOutputs};
+use simhc_problems::grps::declared::{params_of, Grps8Problem, GrpsOutputs, GrpsSolvers, GrpsSolversError};
 use simhc_problems::grps::features::GrpsFrame;
+use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::grps::unknowns_of;
+use simhc_problems::grps::{rows_of, Grps7, Grps8};
 use simhc_problems::metrics::{random_unit_quaternion, rotation_from_quat};
 
 type Params = SVector<f64, 96>;
@@ -93,4 +96,44 @@ fn the_output_decoding_inverts_the_training_target() {
     assert!(!GrpsOutputs.decode(&degenerate, &mut [0.0; 8]), "a1 = 0 is no rotation");
     assert!(!GrpsOutputs.decode(&[1.0; 9], &mut [0.0; 8]), "9 outputs are not a hypothesis");
     assert_eq!(GrpsOutputs.width(), 10);
+}
+
+/// The data vector of the declared problems is the instances' parameter vector.
+#[test]
+fn params_of_is_the_instances_parameter_vector() {
+    let scene = GrpsSceneConfig::default().sample_seeded(3).expect("valid config");
+    let c = &scene.correspondences;
+    assert_eq!(params_of::<96>(c), Some(Grps8::params(&rows_of::<8>(c).unwrap())));
+    assert_eq!(params_of::<84>(&c[..7]), Some(Grps7::params(&rows_of::<7>(&c[..7]).unwrap())));
+    assert_eq!(params_of::<84>(c), None, "8 correspondences are not 84 parameters");
+}
+
+/// 7 and 8 correspondences go to their instances (the 8-point pose is the truth; the 7-point
+/// one fits its data exactly); other counts and a NaN are typed errors that say what and where.
+#[test]
+fn grps_solvers_dispatch_by_count() {
+    let solvers = GrpsSolvers::new(0.0).expect("shipped weights");
+    let problem = Grps8Problem::new();
+    let mut solved = [0usize; 2];
+    for seed in 0..10 {
+        let scene = GrpsSceneConfig::default().sample_seeded(100 + seed).expect("valid config");
+        let c = &scene.correspondences;
+        let truth = simhc_problems::grps::unknowns_of(&scene.rotation, &scene.translation, scene.scale);
+        if let Ok(s) = solvers.solve(c) {
+            assert!(problem.correct(&problem.errors(&s.x, &truth)), "seed {seed}: a wrong 8-point pose");
+            solved[1] += 1;
+        }
+        if let Ok(s) = solvers.solve(&c[..7]) {
+            assert!(s.check.max_angle < 1e-9, "seed {seed}: {:?}", s.check);
+            solved[0] += 1;
+        }
+    }
+    assert!(solved[1] >= 9 && solved[0] >= 7, "solved (7, 8 pts): {solved:?}");
+    let scene = GrpsSceneConfig { points: 9, ..GrpsSceneConfig::default() }.sample_seeded(1).expect("valid config");
+    assert_eq!(solvers.solve(&scene.correspondences).unwrap_err(), GrpsSolversError::Count(9));
+    assert_eq!(solvers.solve(&scene.correspondences[..6]).unwrap_err(), GrpsSolversError::Count(6));
+    let mut bad = scene.correspondences[..8].to_vec();
+    bad[3].fp.y = f64::NAN;
+    let err = solvers.solve(&bad).unwrap_err().to_string();
+    assert!(err.contains("row 3") && err.contains("fp"), "{err}");
 }

@@ -1,10 +1,11 @@
-//! GRPS as a declared problem ([`simhc::solver::DeclaredProblem`]): the same compiled
-//! instances, shipped weights, canonical frames, geometric simulator and all-roots start system
-//! as [`super::solver::GrpsSolver`], assembled by the runtime's generic [`Solver`] instead of by
-//! hand. `simhc bench grps8` runs it beside `simhc bench grps` (the hand-assembled solver),
-//! so the two assemblies are compared on the same trials.
+//! GRPS as a declared problem ([`simhc::solver::DeclaredProblem`]), on 7 and on 8
+//! correspondences ([`Grps7Problem`], [`Grps8Problem`]; [`GrpsSolvers`] dispatches by count):
+//! the same compiled instances, shipped weights, canonical frames, geometric simulator and
+//! all-roots start system as [`super::solver::GrpsSolver`], assembled by the runtime's generic
+//! [`Solver`] instead of by hand. `simhc bench grps7|grps8` run them beside `simhc bench grps`
+//! (the hand-assembled solver), so the two assemblies are compared on the same trials.
 //!
-//! - tracked and data instance [`Grps8`]: measured, one path on all 8 correspondences
+//! - tracked and data instance [`Grps8`] (or [`Grps7`]): measured, one path on all 8 correspondences
 //!   validates more often than one on the square first 7 (81 against 53 % with the geometric
 //!   simulator, `simhc bench grps --experiment stability`), although its intermediate systems
 //!   are inconsistent;
@@ -24,8 +25,8 @@
 use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
 use super::refine::{angular_residual, translation_scale_for_rotation};
 use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
-use super::solver::{GrpsPose, GrpsSolver, GrpsSolverOptions, GrpsValidator, GRPS_WEIGHTS};
-use super::{correspondence_of_row, correspondences_of, rows_of, unknowns_of, Grps8, ROW_LEN};
+use super::solver::{GrpsPose, GrpsSolver, GrpsSolverOptions, GrpsValidator, Validation, GRPS_WEIGHTS};
+use super::{correspondence_of_row, correspondences_of, unknowns_of, Grps7, Grps8, ROW_LEN};
 use crate::metrics::{random_unit_quaternion, rotation_error_deg, rotation_from_quat, scale_error_pct, translation_error_pct};
 use crate::start_systems::{run_monodromy_grps7, solve_grps7};
 use nalgebra::{Matrix3, SVector, Vector3};
@@ -34,43 +35,47 @@ use rand_chacha::ChaCha8Rng;
 use simhc::all_roots::AllRootsOptions;
 use simhc::pipeline::path::gauss_newton;
 use simhc::pipeline::{Generic, InputRows, OutputDecoding, StartError, StartProvider};
-use simhc::solver::{AllRoots, CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement};
+use simhc::solver::{AllRoots, CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, Solver, SolverError};
 use simhc::start_system::{MonodromyConfig, MonodromyReport, StartSystemError};
 use simhc::MinNormSimulator;
 
-/// Data parameters: 8 correspondences of 12 numbers.
-pub type Params = SVector<f64, 96>;
 /// Unknowns `[q, t, s]`.
 pub type Unknowns = SVector<f64, 8>;
 
-/// GRPS on 8 correspondences through the generic assembly (module docs).
-pub struct Grps8Problem {
+/// GRPS on `N` correspondences (7 or 8) through the generic assembly (module docs).
+pub struct GrpsProblem<const N: usize> {
     all_roots: GrpsAllRoots,
     outputs: GrpsOutputs,
-    rows: GrpsRows,
+    rows: GrpsRows<N>,
 }
 
-impl Grps8Problem {
+/// GRPS on 7 correspondences (minimal: every real root fits them, so a validated pose may be
+/// another root; see [`GrpsSolver::solve`]).
+pub type Grps7Problem = GrpsProblem<7>;
+/// GRPS on 8 correspondences.
+pub type Grps8Problem = GrpsProblem<8>;
+
+impl<const N: usize> GrpsProblem<N> {
     /// The problem with the shipped start system.
     pub fn new() -> Self {
         Self { all_roots: GrpsAllRoots, outputs: GrpsOutputs, rows: GrpsRows }
     }
 }
 
-impl Default for Grps8Problem {
+impl<const N: usize> Default for GrpsProblem<N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-/// The 8 correspondences of a data vector, on the stack.
-fn correspondences(p: &Params) -> [GrpsCorrespondence; 8] {
-    correspondences_of::<8>(p.as_slice())
-}
-
-/// The data vector of 8 correspondences.
-fn params_of(corrs: &[GrpsCorrespondence]) -> Option<Params> {
-    rows_of::<8>(corrs).map(|rows| Grps8::params(&rows))
+/// The data vector of `NP / 12` correspondences (the declared row order `[f, v, fp, vp]`,
+/// rows after rows, no globals: what `Grps7::params` and `Grps8::params` make), or `None` for
+/// another count.
+pub fn params_of<const NP: usize>(corrs: &[GrpsCorrespondence]) -> Option<SVector<f64, NP>> {
+    if corrs.len() * ROW_LEN != NP {
+        return None;
+    }
+    Some(SVector::from_iterator(corrs.iter().flat_map(|c| c.f.iter().chain(&c.v).chain(&c.fp).chain(&c.vp).copied())))
 }
 
 /// Pose errors: rotation (deg), translation and scale (percent).
@@ -96,16 +101,15 @@ fn map_unknowns(x: &Unknowns, map: impl Fn(&Matrix3<f64>, &Vector3<f64>, f64) ->
     }
 }
 
-/// The learned start's input rows: [`GrpsFrame`] rows of the (canonical) correspondences.
-pub struct GrpsRows;
+/// The learned start's input rows: [`GrpsFrame`] rows of the `N` (canonical) correspondences.
+pub struct GrpsRows<const N: usize>;
 
-impl InputRows for GrpsRows {
+impl<const N: usize> InputRows for GrpsRows<N> {
     fn shape(&self) -> (usize, usize) {
-        (8, GRPS_ROW_WIDTH)
+        (N, GRPS_ROW_WIDTH)
     }
     fn write(&self, p: &[f64], out: &mut [f32]) -> bool {
-        let Ok(p) = <&[f64; 96]>::try_from(p) else { return false };
-        GrpsFrame::IDENTITY.rows(&correspondences(&Params::from(*p)), out)
+        p.len() == N * ROW_LEN && GrpsFrame::IDENTITY.rows(&correspondences_of::<N>(p), out)
     }
 }
 
@@ -143,7 +147,7 @@ pub struct PredictedStart {
     least_squares: bool,
 }
 
-impl StartProvider<Params, 8> for PredictedStart {
+impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for PredictedStart {
     fn name(&self) -> &'static str {
         match (self.swapped, self.least_squares) {
             (false, false) => "learned",
@@ -152,9 +156,9 @@ impl StartProvider<Params, 8> for PredictedStart {
             (true, true) => "learned, swapped views, rotation with least-squares (t, s)",
         }
     }
-    fn start(&self, p: &Params) -> Result<Unknowns, StartError> {
+    fn start(&self, p: &SVector<f64, NP>) -> Result<Unknowns, StartError> {
         let fail = |reason: String| StartError { provider: "predicted", reason };
-        let corrs = correspondences(p);
+        let corrs: Vec<GrpsCorrespondence> = p.as_slice().chunks_exact(ROW_LEN).map(correspondence_of_row).collect();
         let (r, t, s) = if self.swapped {
             let pose = self.solver.predict(&swap_views(&corrs)).map_err(|e| fail(e.to_string()))?;
             swap_pose(&pose.rotation, &pose.translation, pose.scale)
@@ -176,9 +180,10 @@ impl StartProvider<Params, 8> for PredictedStart {
 /// ([`solve_grps7`]).
 pub struct GrpsAllRoots;
 
-impl AllRoots<8, 96> for GrpsAllRoots {
-    fn candidates(&self, p: &Params) -> Vec<Unknowns> {
-        let p7 = SVector::<f64, 84>::from_column_slice(&p.as_slice()[..84]);
+impl<const NP: usize> AllRoots<8, NP> for GrpsAllRoots {
+    fn candidates(&self, p: &SVector<f64, NP>) -> Vec<Unknowns> {
+        let Some(first) = p.as_slice().get(..84) else { return Vec::new() };
+        let p7 = SVector::<f64, 84>::from_column_slice(first);
         solve_grps7(&p7, &AllRootsOptions::default()).real.iter().map(|s| s.x).collect()
     }
     fn has_start_system(&self) -> bool {
@@ -189,105 +194,164 @@ impl AllRoots<8, 96> for GrpsAllRoots {
     }
 }
 
-impl DeclaredProblem<8, 9, 96, { Grps8::NC }, 96> for Grps8Problem {
-    type Tracked = Grps8;
-    type Data = Grps8;
-    type Validator = GrpsValidator;
-    const NAME: &'static str = "grps8";
-    const ABOUT: &'static str = "Generalized relative pose and scale, 8 correspondences, through the generic solver assembly";
-    const ERRORS: &'static [&'static str] = &["E_R deg", "E_t %", "E_s %"];
-    const REFINES: bool = true;
+/// The `DeclaredProblem` impl of `GrpsProblem<$rows>` on instance `$instance` (`$nf`
+/// equations, `$np` parameters): the two differ in their sizes only.
+macro_rules! grps_problem {
+    ($rows:literal, $instance:ident, $nf:literal, $np:literal, $name:literal, $about:literal) => {
+        impl DeclaredProblem<8, $nf, $np, { $instance::NC }, $np> for GrpsProblem<$rows> {
+            type Tracked = $instance;
+            type Data = $instance;
+            type Validator = GrpsValidator;
+            const NAME: &'static str = $name;
+            const ABOUT: &'static str = $about;
+            const ERRORS: &'static [&'static str] = &["E_R deg", "E_t %", "E_s %"];
+            const REFINES: bool = true;
 
-    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (Params, Unknowns) {
-        let config = GrpsSceneConfig { noise_px: noise, ..GrpsSceneConfig::default() };
-        loop {
-            // A config error cannot happen for a finite noise; a degenerate draw is redrawn.
-            let Ok(scene) = config.sample(rng) else { continue };
-            if let Some(p) = params_of(&scene.correspondences) {
-                return (p, unknowns_of(&scene.rotation, &scene.translation, scene.scale));
-            }
-        }
-    }
-    fn validator(&self, noise: f64) -> GrpsValidator {
-        let options = if noise > 0.0 {
-            GrpsSolverOptions::for_noise(noise, GrpsSceneConfig::default().focal_px)
-        } else {
-            GrpsSolverOptions::default()
-        };
-        GrpsValidator::of(&options)
-    }
-    fn errors(&self, x: &Unknowns, truth: &Unknowns) -> Vec<f64> {
-        errors(x, truth).to_vec()
-    }
-    /// The paper's criterion: `E_R < 2 deg`, `E_t < 5 %`, `E_s < 5 %`.
-    fn correct(&self, e: &[f64]) -> bool {
-        e.len() == 3 && e[0] < 2.0 && e[1] < 5.0 && e[2] < 5.0
-    }
-    fn refine(&self, p: &Params, x0: &Unknowns) -> Refinement<8> {
-        gauss_newton::<Grps8, 8, 9, 96>(x0, p, &Default::default()).map(|(x, _)| x).into()
-    }
-    fn canonicalize(&self, p: &Params) -> Option<(Params, CanonicalFrame<8>)> {
-        let corrs = correspondences(p);
-        let frame = GrpsFrame::new(&corrs)?;
-        let canonical = params_of(&frame.canonical(&corrs))?;
-        let to_canonical = Box::new(move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.to_canonical(r, t, s)));
-        let to_user = Box::new(move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.from_canonical(r, t, s)));
-        Some((canonical, CanonicalFrame { to_canonical, to_user }))
-    }
-    fn input_rows(&self) -> Option<&dyn InputRows> {
-        Some(&self.rows)
-    }
-    fn outputs(&self) -> Option<&dyn OutputDecoding> {
-        Some(&self.outputs)
-    }
-    fn weights(&self) -> Option<&'static [u8]> {
-        Some(GRPS_WEIGHTS)
-    }
-    /// Random rotations of both views, random offsets of their origins, and random units of
-    /// view 2 (a factor in `[0.1, 10]`): [`GrpsScene::transformed`].
-    fn move_frames(&self, rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> Option<(Params, Unknowns)> {
-        let pose = GrpsPose::from_unknowns(x)?;
-        let scene = GrpsScene {
-            correspondences: correspondences(p).to_vec(),
-            rotation: pose.rotation,
-            translation: pose.translation,
-            scale: pose.scale,
-        };
-        let mut frame = || (rotation_from_quat(random_unit_quaternion(rng)), Vector3::from_fn(|_, _| rng.random_range(-10.0..10.0)));
-        let (v1, v2) = (frame(), frame());
-        let units = 10f64.powf(rng.random_range(-1.0..1.0));
-        let moved = scene.transformed((&v1.0, &v1.1), (&v2.0, &v2.1), units);
-        Some((params_of(&moved.correspondences)?, unknowns_of(&moved.rotation, &moved.translation, moved.scale)))
-    }
-    /// The predicted rotation with least-squares `(t, s)`, the swapped prediction and its
-    /// rotation with least-squares `(t, s)` ([`PredictedStart`]).
-    fn other_starts(&self) -> Vec<OtherStart<8, 96>> {
-        let Ok(solver) = GrpsSolver::new() else { return Vec::new() };
-        [(false, true), (true, false), (true, true)]
-            .into_iter()
-            .map(|(swapped, least_squares)| {
-                Box::new(PredictedStart { solver: solver.clone(), swapped, least_squares }) as OtherStart<8, 96>
-            })
-            .collect()
-    }
-    fn other_simulators(&self) -> Vec<OtherSimulator<8, 9, 96, 96>> {
-        vec![Box::new(Generic(MinNormSimulator::<Grps8>::new()))]
-    }
-    fn all_roots(&self) -> Option<&dyn AllRoots<8, 96>> {
-        Some(&self.all_roots)
-    }
-    /// The robust estimator's error: the angular residual of the correspondence (radians).
-    fn row_error(&self, x: &Unknowns, row: &[f64], _globals: &[f64]) -> f64 {
-        match (GrpsPose::from_unknowns(x), row.len() == ROW_LEN) {
-            (Some(pose), true) => {
-                let e = angular_residual(&pose.rotation, &pose.translation, pose.scale, &correspondence_of_row(row)).abs();
-                if e.is_nan() {
-                    f64::INFINITY
-                } else {
-                    e
+            fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, $np>, Unknowns) {
+                let config = GrpsSceneConfig { points: $rows, noise_px: noise, ..GrpsSceneConfig::default() };
+                // Only a bad noise (negative, not finite) fails: its scene is NaN, which every
+                // solve reports as an input error naming row 0.
+                match config.sample(rng).ok().and_then(|scene| Some((params_of::<$np>(&scene.correspondences)?, scene))) {
+                    Some((p, scene)) => (p, unknowns_of(&scene.rotation, &scene.translation, scene.scale)),
+                    None => (SVector::from_element(f64::NAN), Unknowns::from_element(f64::NAN)),
                 }
             }
-            _ => f64::INFINITY,
+            fn validator(&self, noise: f64) -> GrpsValidator {
+                let options = if noise > 0.0 {
+                    GrpsSolverOptions::for_noise(noise, GrpsSceneConfig::default().focal_px)
+                } else {
+                    GrpsSolverOptions::default()
+                };
+                GrpsValidator::of(&options)
+            }
+            fn errors(&self, x: &Unknowns, truth: &Unknowns) -> Vec<f64> {
+                errors(x, truth).to_vec()
+            }
+            /// The paper's criterion: `E_R < 2 deg`, `E_t < 5 %`, `E_s < 5 %`.
+            fn correct(&self, e: &[f64]) -> bool {
+                e.len() == 3 && e[0] < 2.0 && e[1] < 5.0 && e[2] < 5.0
+            }
+            fn refine(&self, p: &SVector<f64, $np>, x0: &Unknowns) -> Refinement<8> {
+                gauss_newton::<$instance, 8, $nf, $np>(x0, p, &Default::default()).map(|(x, _)| x).into()
+            }
+            fn canonicalize(&self, p: &SVector<f64, $np>) -> Option<(SVector<f64, $np>, CanonicalFrame<8>)> {
+                let corrs = correspondences_of::<$rows>(p.as_slice());
+                let frame = GrpsFrame::new(&corrs)?;
+                let canonical = params_of::<$np>(&frame.canonical(&corrs))?;
+                let to_canonical = Box::new(move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.to_canonical(r, t, s)));
+                let to_user = Box::new(move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.from_canonical(r, t, s)));
+                Some((canonical, CanonicalFrame { to_canonical, to_user }))
+            }
+            fn input_rows(&self) -> Option<&dyn InputRows> {
+                Some(&self.rows)
+            }
+            fn outputs(&self) -> Option<&dyn OutputDecoding> {
+                Some(&self.outputs)
+            }
+            fn weights(&self) -> Option<&'static [u8]> {
+                Some(GRPS_WEIGHTS)
+            }
+            /// Random rotations of both views, random offsets of their origins, and random units of
+            /// view 2 (a factor in `[0.1, 10]`): [`GrpsScene::transformed`].
+            fn move_frames(&self, rng: &mut ChaCha8Rng, p: &SVector<f64, $np>, x: &Unknowns) -> Option<(SVector<f64, $np>, Unknowns)> {
+                let pose = GrpsPose::from_unknowns(x)?;
+                let scene = GrpsScene {
+                    correspondences: correspondences_of::<$rows>(p.as_slice()).to_vec(),
+                    rotation: pose.rotation,
+                    translation: pose.translation,
+                    scale: pose.scale,
+                };
+                let mut frame =
+                    || (rotation_from_quat(random_unit_quaternion(rng)), Vector3::from_fn(|_, _| rng.random_range(-10.0..10.0)));
+                let (v1, v2) = (frame(), frame());
+                let units = 10f64.powf(rng.random_range(-1.0..1.0));
+                let moved = scene.transformed((&v1.0, &v1.1), (&v2.0, &v2.1), units);
+                Some((params_of::<$np>(&moved.correspondences)?, unknowns_of(&moved.rotation, &moved.translation, moved.scale)))
+            }
+            /// The predicted rotation with least-squares `(t, s)`, the swapped prediction and its
+            /// rotation with least-squares `(t, s)` ([`PredictedStart`]).
+            fn other_starts(&self) -> Vec<OtherStart<8, $np>> {
+                let Ok(solver) = GrpsSolver::new() else { return Vec::new() };
+                [(false, true), (true, false), (true, true)]
+                    .into_iter()
+                    .map(|(swapped, least_squares)| {
+                        Box::new(PredictedStart { solver: solver.clone(), swapped, least_squares }) as OtherStart<8, $np>
+                    })
+                    .collect()
+            }
+            fn other_simulators(&self) -> Vec<OtherSimulator<8, $nf, $np, $np>> {
+                vec![Box::new(Generic(MinNormSimulator::<$instance>::new()))]
+            }
+            fn all_roots(&self) -> Option<&dyn AllRoots<8, $np>> {
+                Some(&self.all_roots)
+            }
+            /// The robust estimator's error: the angular residual of the correspondence (radians).
+            fn row_error(&self, x: &Unknowns, row: &[f64], _globals: &[f64]) -> f64 {
+                match (GrpsPose::from_unknowns(x), row.len() == ROW_LEN) {
+                    (Some(pose), true) => {
+                        let e = angular_residual(&pose.rotation, &pose.translation, pose.scale, &correspondence_of_row(row)).abs();
+                        if e.is_nan() {
+                            f64::INFINITY
+                        } else {
+                            e
+                        }
+                    }
+                    _ => f64::INFINITY,
+                }
+            }
         }
+    };
+}
+
+grps_problem!(
+    7,
+    Grps7,
+    8,
+    84,
+    "grps7",
+    "Generalized relative pose and scale, 7 correspondences (minimal), through the generic solver assembly"
+);
+grps_problem!(8, Grps8, 9, 96, "grps8", "Generalized relative pose and scale, 8 correspondences, through the generic solver assembly");
+
+/// The generic solvers of GRPS on 7 and on 8 correspondences behind one call that picks the
+/// instance by the number of correspondences. Both return the runtime's own [`Outcome`] (the
+/// same types for both instances, nothing translated).
+pub struct GrpsSolvers {
+    /// The solver on 7 correspondences.
+    pub seven: Solver<Grps7Problem, 8, 8, 84, { Grps7::NC }, 84>,
+    /// The solver on 8 correspondences.
+    pub eight: Solver<Grps8Problem, 8, 9, 96, { Grps8::NC }, 96>,
+}
+
+/// Why [`GrpsSolvers::solve`] did not return a validated pose.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GrpsSolversError {
+    /// Neither 7 nor 8 correspondences (more: the robust estimator, or [`GrpsSolver`], which
+    /// refines on all of them).
+    #[error("{0} correspondences: the generic GRPS solvers take 7 or 8")]
+    Count(usize),
+    /// The solve's own error ([`simhc::solver::SolveError`]: input, flagged, no end point).
+    #[error(transparent)]
+    Solve(#[from] simhc::solver::SolveError<Validation, 8>),
+}
+
+impl GrpsSolvers {
+    /// Both solvers with the shipped weights, validating for noise of `noise_px` pixels.
+    pub fn new(noise_px: f64) -> Result<Self, SolverError> {
+        Ok(Self {
+            seven: Solver::with_weights(Grps7Problem::new(), GRPS_WEIGHTS, noise_px)?,
+            eight: Solver::with_weights(Grps8Problem::new(), GRPS_WEIGHTS, noise_px)?,
+        })
+    }
+
+    /// Solves 7 or 8 correspondences with the instance of that count.
+    pub fn solve(&self, corrs: &[GrpsCorrespondence]) -> Result<simhc::solver::Solution<Validation, 8>, GrpsSolversError> {
+        if let Some(p) = params_of::<84>(corrs) {
+            return Ok(self.seven.solve(&p)?);
+        }
+        if let Some(p) = params_of::<96>(corrs) {
+            return Ok(self.eight.solve(&p)?);
+        }
+        Err(GrpsSolversError::Count(corrs.len()))
     }
 }

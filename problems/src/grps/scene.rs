@@ -49,7 +49,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 /// One 2D-2D generalized correspondence: `alpha f + v = R (alpha' fp + s vp) + t`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 #[serde(from = "CorrespondenceRecord", into = "CorrespondenceRecord")]
 pub struct GrpsCorrespondence {
     /// Bearing `f` in view 1.

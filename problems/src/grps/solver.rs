@@ -843,8 +843,7 @@ impl<const N: usize, const NP: usize> TargetParameters<[GrpsCorrespondence], NP>
 }
 
 /// [`Validation`] on every correspondence, with the thresholds of the options: of a slice of
-/// correspondences (this solver) or of a parameter vector of 8
-/// ([`super::declared::Grps8Problem`]).
+/// correspondences (this solver) or of a parameter vector ([`super::declared::GrpsProblem`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GrpsValidator {
     accept_angle: f64,
@@ -891,11 +890,20 @@ impl Validator<[GrpsCorrespondence], 8> for GrpsValidator {
     }
 }
 
-impl Validator<SVector<f64, 96>, 8> for GrpsValidator {
+/// Of a parameter vector of up to 8 correspondences (`NP / 12`; more validate nothing).
+impl<const NP: usize> Validator<SVector<f64, NP>, 8> for GrpsValidator {
     type Check = Validation;
 
-    fn check(&self, p: &SVector<f64, 96>, x: &SVector<f64, 8>) -> Validation {
-        self.check_slice(&super::correspondences_of::<8>(p.as_slice()), x)
+    fn check(&self, p: &SVector<f64, NP>, x: &SVector<f64, 8>) -> Validation {
+        let n = NP / super::ROW_LEN;
+        if n > 8 {
+            return Validation { max_angle: f64::INFINITY, behind: n, positive_scale: false };
+        }
+        let mut corrs = [GrpsCorrespondence::default(); 8];
+        for (c, row) in corrs.iter_mut().zip(p.as_slice().chunks_exact(super::ROW_LEN)) {
+            *c = super::correspondence_of_row(row);
+        }
+        self.check_slice(&corrs[..n], x)
     }
     fn verdict(&self, v: &Validation) -> Verdict {
         self.verdict_of(v)

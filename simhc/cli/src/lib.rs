@@ -37,6 +37,7 @@ pub fn simhc_app() -> App {
         .register(Upnp)
         .register(Grps)
         // GRPS through the generic assembly, beside the hand-assembled `grps` (same weights).
+        .register(Declared::new(simhc_problems::grps::declared::Grps7Problem::new()))
         .register(Declared::new(simhc_problems::grps::declared::Grps8Problem::new()))
         .register(TrackerBench)
 }

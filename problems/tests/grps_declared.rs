@@ -137,3 +137,35 @@ fn grps_solvers_dispatch_by_count() {
     let err = solvers.solve(&bad).unwrap_err().to_string();
     assert!(err.contains("row 3") && err.contains("fp"), "{err}");
 }
+
+/// The runtime's robust estimator on GRPS (the declared angular `row_error`): 60
+/// correspondences at 1 px with 30 % wrong matches (rows of another scene). Every true match
+/// is kept, no more than 2 wrong ones are inside the threshold, and the rotation is within the
+/// paper's RANSAC criterion (`E_R < 2 deg`; at 1 px with 3 cameras a view, translation and
+/// scale of 42 correspondences can miss 5 %: the bench's 89-99 % success).
+/// Measured: `simhc ransac grps8 --threshold 0.004 --trials 100 --seed 1` keeps every true
+/// match at 0-50 % wrong matches (recall 100 %).
+#[test]
+fn the_estimator_finds_the_inliers_of_grps8() {
+    let seed = 21;
+    println!("seed {seed}");
+    let solver = Solver::with_weights(Grps8Problem::new(), simhc_problems::grps::solver::GRPS_WEIGHTS, 1.0).expect("shipped weights");
+    let problem = solver.problem();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for trial in 0..3 {
+        let (mut rows, _, truth) = problem.scene_rows(&mut rng, 60, 1.0).expect("GRPS has a many-row sampler");
+        let (other, _, _) = problem.scene_rows(&mut rng, 60, 1.0).expect("sampler");
+        let wrong: Vec<bool> = (0..60).map(|i| i % 10 < 3).collect();
+        for (i, _) in wrong.iter().enumerate().filter(|(_, w)| **w) {
+            rows[i * 12..(i + 1) * 12].copy_from_slice(&other[i * 12..(i + 1) * 12]);
+        }
+        let options = simhc::ransac::RansacOptions { seed: trial, ..simhc::ransac::RansacOptions::poselib(0.004) };
+        let (x, info) = solver.estimate(&rows, &[], &options).expect("an estimate");
+        let kept_true = (0..60).filter(|&i| !wrong[i] && info.inlier_mask[i]).count();
+        let kept_wrong = (0..60).filter(|&i| wrong[i] && info.inlier_mask[i]).count();
+        assert_eq!(kept_true, 42, "trial {trial}: true matches kept");
+        assert!(kept_wrong <= 2, "trial {trial}: {kept_wrong} wrong matches kept");
+        let errors = problem.errors(&x, &truth);
+        assert!(errors[0] < 2.0, "trial {trial}: {errors:?}");
+    }
+}

@@ -286,6 +286,14 @@ macro_rules! grps_problem {
             fn all_roots(&self) -> Option<&dyn AllRoots<8, $np>> {
                 Some(&self.all_roots)
             }
+            /// The problem's sampler with `rows` correspondences (at least the instance's):
+            /// rows of 12 numbers `[f, v, fp, vp]`, no globals (`simhc ransac grps7|grps8`).
+            fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, Unknowns)> {
+                let config = GrpsSceneConfig { points: rows.max($rows), noise_px: noise, ..GrpsSceneConfig::default() };
+                let scene = config.sample(rng).ok()?;
+                let data = scene.correspondences.iter().flat_map(|c| c.f.iter().chain(&c.v).chain(&c.fp).chain(&c.vp).copied()).collect();
+                Some((data, Vec::new(), unknowns_of(&scene.rotation, &scene.translation, scene.scale)))
+            }
             /// The robust estimator's error: the angular residual of the correspondence (radians).
             fn row_error(&self, x: &Unknowns, row: &[f64], _globals: &[f64]) -> f64 {
                 match (GrpsPose::from_unknowns(x), row.len() == ROW_LEN) {

@@ -27,7 +27,7 @@ use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_W
 use super::refine::{angular_residual, translation_scale_for_rotation};
 use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
 use super::solver::{GrpsPose, GrpsSolver, GrpsSolverOptions, GrpsValidator, Validation, GRPS_WEIGHTS};
-use super::{correspondence_of_row, correspondences_of, unknowns_of, Grps7, Grps8, ROW_LEN};
+use super::{correspondence_of_row, correspondences_of, row_numbers, unknowns_of, Grps7, Grps8, ROW_LEN};
 use crate::metrics::{random_unit_quaternion, rotation_error_deg, rotation_from_quat, scale_error_pct, translation_error_pct};
 use crate::start_systems::{run_monodromy_grps7, solve_grps7};
 use nalgebra::{Matrix3, SVector, Vector3};
@@ -76,7 +76,7 @@ pub fn params_of<const NP: usize>(corrs: &[GrpsCorrespondence]) -> Option<SVecto
     if corrs.len() * ROW_LEN != NP {
         return None;
     }
-    Some(SVector::from_iterator(corrs.iter().flat_map(|c| c.f.iter().chain(&c.v).chain(&c.fp).chain(&c.vp).copied())))
+    Some(SVector::from_iterator(row_numbers(corrs)))
 }
 
 /// Pose errors: rotation (deg), translation and scale (percent).
@@ -291,7 +291,7 @@ macro_rules! grps_problem {
             fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, Unknowns)> {
                 let config = GrpsSceneConfig { points: rows.max($rows), noise_px: noise, ..GrpsSceneConfig::default() };
                 let scene = config.sample(rng).ok()?;
-                let data = scene.correspondences.iter().flat_map(|c| c.f.iter().chain(&c.v).chain(&c.fp).chain(&c.vp).copied()).collect();
+                let data = row_numbers(&scene.correspondences).collect();
                 Some((data, Vec::new(), unknowns_of(&scene.rotation, &scene.translation, scene.scale)))
             }
             /// The robust estimator's error: the angular residual of the correspondence (radians).

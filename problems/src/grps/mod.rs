@@ -30,6 +30,12 @@ pub fn correspondence_of_row(row: &[f64]) -> GrpsCorrespondence {
     GrpsCorrespondence { f: v3(0), v: v3(1), fp: v3(2), vp: v3(3) }
 }
 
+/// The numbers of `corrs` as parameter rows (`ROW_LEN` each, the declared order
+/// `[f, v, fp, vp]`; the inverse of [`correspondence_of_row`]).
+pub fn row_numbers(corrs: &[GrpsCorrespondence]) -> impl Iterator<Item = f64> + '_ {
+    corrs.iter().flat_map(|c| c.f.iter().chain(&c.v).chain(&c.fp).chain(&c.vp).copied())
+}
+
 /// The first `N` correspondences of a GRPS parameter vector (`N * ROW_LEN` numbers at least).
 pub fn correspondences_of<const N: usize>(p: &[f64]) -> [GrpsCorrespondence; N] {
     std::array::from_fn(|i| correspondence_of_row(&p[i * ROW_LEN..(i + 1) * ROW_LEN]))

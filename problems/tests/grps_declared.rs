@@ -169,3 +169,39 @@ fn the_estimator_finds_the_inliers_of_grps8() {
         assert!(errors[0] < 2.0, "trial {trial}: {errors:?}");
     }
 }
+
+/// The restarts: restart `k` turns the hypothesis's rotation by `restart_rotation(k)` and
+/// re-solves `(t, s)` by least squares, so a hypothesis that is the truth turned back by that
+/// rotation (and with a wrong `(t, s)`) restarts at the exact truth; and the solver tries all
+/// 65 with Gauss-Newton after every other attempt.
+#[test]
+fn a_restart_turns_the_prediction_and_resolves_translation_and_scale() {
+    use simhc::solver::restarts::restart_provider;
+    use simhc::solver::{restart_rotation, MAX_RESTARTS};
+    use simhc_problems::grps::solver::GRPS_RESTART_ANGLES_DEG;
+    let seed = 21;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let problem = Grps8Problem::new();
+    let restarts = <Grps8Problem as DeclaredProblem<8, 9, 96, { Grps8::NC }, 96>>::RESTARTS;
+    assert_eq!(restarts, 13 * GRPS_RESTART_ANGLES_DEG.len());
+    assert!(restarts <= MAX_RESTARTS);
+    for k in [0, 14, 40, restarts - 1] {
+        let (p, truth) = problem.scene(&mut rng, 0.0);
+        let r_truth = rotation_from_quat([truth[0], truth[1], truth[2], truth[3]]);
+        let back = restart_rotation(k, &GRPS_RESTART_ANGLES_DEG).unwrap().inverse().into_inner() * r_truth;
+        let hypothesis = unknowns_of(&back, &nalgebra::Vector3::new(1.0, -2.0, 0.5), 3.0);
+        let x = problem.restart(&p, &hypothesis, k).expect("a restart");
+        let errors = problem.errors(&x, &truth);
+        assert!(errors.iter().all(|e| *e < 1e-6), "restart {k}: errors {errors:?}");
+    }
+    assert_eq!(problem.restart(&problem.scene(&mut rng, 0.0).0, &SVector::zeros(), 0), None, "a zero quaternion");
+
+    let solver = Solver::new(problem).expect("shipped weights");
+    let schedule = solver.schedule();
+    let (hypotheses, others) = (solver.learned_start().hypotheses(), 3);
+    let tail: Vec<_> = (0..restarts)
+        .map(|k| simhc::pipeline::Attempt { provider: restart_provider(hypotheses, others, k), method: Method::GaussNewton })
+        .collect();
+    assert!(schedule.ends_with(&tail), "{schedule:?}");
+}

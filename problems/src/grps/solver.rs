@@ -61,12 +61,13 @@ use super::refine::{angular_residual, refine_pose, rotation_residual, translatio
 use super::scene::GrpsCorrespondence;
 use super::{Grps7, Grps8, Row};
 use crate::metrics::rotation_from_quat;
-use nalgebra::{Matrix3, Rotation3, SVector, Unit, Vector3};
+use nalgebra::{Matrix3, SVector, Vector3};
 use simhc::pipeline::{
     self, Attempt, Fallback, Generic, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator,
     TargetParameters, Validator, Verdict,
 };
 use simhc::regressor::{FoldedNetwork, HypothesisBlocks, RegressorError};
+use simhc::solver::{restart_rotation, RESTART_AXES};
 use simhc::tracker::{solve_newton, NewtonOptions, TrackStats, TrackerOptions};
 use simhc::{CoefficientForm, MinNormSimulator, ParamDerivative};
 use std::cell::{Cell, OnceCell};
@@ -191,6 +192,11 @@ impl StartKind {
     }
 }
 
+/// The shipped restarts' rotations (degrees, each about 13 fixed axes,
+/// [`simhc::solver::restart_rotation`]): [`GrpsSolverOptions::restart_angles_deg`] and the
+/// declared problems' [`simhc::solver::DeclaredProblem::restart`].
+pub const GRPS_RESTART_ANGLES_DEG: [f64; 5] = [20.0, 45.0, 90.0, 135.0, 180.0];
+
 /// Solver settings; the default is the shipped configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GrpsSolverOptions {
@@ -250,7 +256,7 @@ impl Default for GrpsSolverOptions {
             // then take the hypotheses Gauss-Newton could not.
             methods: [Some(Method::GaussNewton), Some(Method::Hc(SimulatorKind::Generic)), Some(Method::Hc(SimulatorKind::Geometric))],
             restart_method: Some(Method::GaussNewton),
-            restart_angles_deg: [20.0, 45.0, 90.0, 135.0, 180.0],
+            restart_angles_deg: GRPS_RESTART_ANGLES_DEG,
             max_attempts: 80,
             accept_angle: 1e-9,
             plausible_angle: 1e-6,
@@ -435,24 +441,6 @@ pub struct GrpsSolver {
     /// Settings.
     pub options: GrpsSolverOptions,
 }
-
-/// Fixed unit axes of the perturbed starts, spread over the sphere: the cube's 4 diagonals, 3
-/// face normals and 6 edge directions (one of each pair of opposite axes).
-const AXES: [[f64; 3]; 13] = [
-    [0.577, 0.577, 0.577],
-    [-0.577, -0.577, 0.577],
-    [0.577, -0.577, -0.577],
-    [-0.577, 0.577, -0.577],
-    [1.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0],
-    [0.0, 0.0, 1.0],
-    [0.707, 0.707, 0.0],
-    [0.707, -0.707, 0.0],
-    [0.707, 0.0, 0.707],
-    [-0.707, 0.0, 0.707],
-    [0.0, 0.707, 0.707],
-    [0.0, 0.707, -0.707],
-];
 
 impl GrpsSolver {
     /// The solver with the shipped regressor and default options.
@@ -686,7 +674,7 @@ impl GrpsSolver {
             (0..kinds.len()).flat_map(|provider| first.iter().map(move |&method| (provider, method))).collect()
         };
         if let Some(restart) = o.restart_method {
-            for k in 0..(o.restart_angles_deg.len() * AXES.len()) as u8 {
+            for k in 0..(o.restart_angles_deg.len() * RESTART_AXES.len()) as u8 {
                 slots.push((kinds.len(), restart.in_pipeline()));
                 kinds.push(StartKind::Perturbed(k));
             }
@@ -788,11 +776,7 @@ impl<'s> Hypotheses<'s> {
             StartKind::Swapped => self.swapped(corrs),
             StartKind::SwappedRotation => least_squares(self.swapped(corrs)?.rotation),
             StartKind::Perturbed(k) => {
-                let (angle, axis) = (k as usize / AXES.len(), k as usize % AXES.len());
-                let angle = self.solver.options.restart_angles_deg.get(angle).copied().unwrap_or(20.0);
-                let axis = Unit::new_normalize(Vector3::from(AXES[axis]));
-                let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
-                let rotation = Rotation3::from_axis_angle(&axis, sign * angle.to_radians()).into_inner() * base.rotation;
+                let rotation = restart_rotation(k as usize, &self.solver.options.restart_angles_deg)?.into_inner() * base.rotation;
                 Some(least_squares(rotation).unwrap_or(GrpsPose { rotation, ..*base }))
             }
         }
@@ -1020,7 +1004,7 @@ mod tests {
         let (_, schedule) = by_start.schedule(StartKind::Prediction, 1);
         let first: Vec<usize> = schedule.iter().take(3 * starts).map(|a| a.provider).collect();
         assert_eq!(first, [0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3]);
-        let restarts = GrpsSolverOptions::default().restart_angles_deg.len() * AXES.len();
+        let restarts = GrpsSolverOptions::default().restart_angles_deg.len() * RESTART_AXES.len();
         assert_eq!(schedule.len(), 3 * starts + restarts);
     }
 }

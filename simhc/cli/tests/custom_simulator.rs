@@ -2,16 +2,21 @@
 //! `OnlineSimulator`, and the registration uses it (`bench` and `solve` build the same
 //! pipeline from `DeclaredProblem::Tracked`), not the generic one. A problem's lists of other
 //! starts and other simulators (`DeclaredProblem::other_starts`, `other_simulators`) run after
-//! the learned start's attempts.
+//! the learned start's attempts, and its restarts (`DeclaredProblem::restart`) last, around the
+//! learned start's hypothesis.
 
 use nalgebra::SVector;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use simhc::pipeline::PipelineError;
 use simhc::pipeline::{Attempt, Method, Origin, StartError, StartProvider, StartSimulator};
-use simhc::solver::{DeclaredProblem, OtherSimulator, OtherStart, Solver, SolverError, MAX_OTHERS};
+use simhc::solver::{
+    restarts::restart_provider, DeclaredProblem, OtherSimulator, OtherStart, Solver, SolverError, MAX_OTHERS, MAX_RESTARTS,
+};
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
 use simhc_cli::{App, Declared};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 
 mod support;
 use support::Residual;
@@ -168,13 +173,21 @@ fn the_other_starts_and_simulators_run_after_the_learned_start() {
     std::fs::remove_dir_all(&dir).ok();
     let solver = Solver::with_weights(Listed { starts: 1, simulators: 1 }, &weights, 0.0).expect("builds");
 
-    // One hypothesis at providers 0 and 1, slot 2 free, the other start at 3: after the shipped
-    // attempts, one path from the learned start with the other simulator, then the other
-    // start's Gauss-Newton and its paths with both simulators.
+    // One hypothesis at providers 0 and 1, slot 2 free, the other start at 3: Gauss-Newton from
+    // the learned start and from the other start, then the learned start's paths with both
+    // simulators, then the other start's.
     let a = |provider, method| Attempt { provider, method };
-    let tail = [a(0, Method::OtherSimulatorHc(0)), a(3, Method::GaussNewton), a(3, Method::SimulatorHc), a(3, Method::OtherSimulatorHc(0))];
     let schedule = solver.schedule();
-    assert!(schedule.len() > tail.len() && schedule.ends_with(&tail), "schedule {schedule:?}");
+    let expect = [
+        a(0, Method::GaussNewton),
+        a(3, Method::GaussNewton),
+        a(0, Method::SimulatorHc),
+        a(0, Method::OtherSimulatorHc(0)),
+        a(3, Method::SimulatorHc),
+        a(3, Method::OtherSimulatorHc(0)),
+    ];
+    assert_eq!(schedule, expect);
+    let tail = [a(0, Method::OtherSimulatorHc(0)), a(3, Method::GaussNewton), a(3, Method::SimulatorHc), a(3, Method::OtherSimulatorHc(0))];
 
     let seed = 11;
     println!("seed {seed}");
@@ -210,11 +223,97 @@ fn more_other_starts_or_simulators_than_a_solver_holds_are_an_error() {
     {
         match Solver::with_weights(problem, &weights, 0.0) {
             Err(e @ SolverError::TooMany { .. }) => {
-                assert_eq!(e, SolverError::TooMany { problem: "listed", what, count: many });
+                assert_eq!(e, SolverError::TooMany { problem: "listed", what, count: many, most: MAX_OTHERS });
                 assert!(e.to_string().contains(&format!("at most {MAX_OTHERS}")), "{e}");
             }
             other => panic!("{what}: {:?}", other.map(|_| "a solver")),
         }
     }
     assert!(Solver::with_weights(Listed { starts: MAX_OTHERS, simulators: MAX_OTHERS }, &weights, 0.0).is_ok());
+}
+
+/// The starts the restart hook was called with, and for which `k`.
+static RESTARTED_FROM: Mutex<Vec<(usize, f64)>> = Mutex::new(Vec::new());
+
+/// The line with `R` restarts: restart `k` is the hypothesis plus `k + 1`, except restart 1,
+/// which the problem does not have.
+struct Restarted<const R: usize>;
+
+impl<const R: usize> DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Restarted<R> {
+    type Tracked = Line3;
+    type Data = Line3;
+    type Validator = Residual;
+    const NAME: &'static str = "restarted";
+    const ABOUT: &'static str = "a line through the origin with restarts";
+    const ERRORS: &'static [&'static str] = &["slope error"];
+    const RESTARTS: usize = R;
+    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
+        Line.scene(rng, noise)
+    }
+    fn validator(&self, noise: f64) -> Residual {
+        Line.validator(noise)
+    }
+    fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
+        Line.errors(x, truth)
+    }
+    fn correct(&self, errors: &[f64]) -> bool {
+        Line.correct(errors)
+    }
+    fn restart(&self, _p: &SVector<f64, 6>, x: &SVector<f64, 1>, k: usize) -> Option<SVector<f64, 1>> {
+        RESTARTED_FROM.lock().unwrap().push((k, x[0]));
+        (k != 1).then(|| SVector::from([x[0] + (k + 1) as f64]))
+    }
+}
+
+#[test]
+fn restarts_start_from_the_learned_hypothesis_and_come_last() {
+    use rand::SeedableRng;
+    let dir = std::env::temp_dir().join(format!("simhc-restarted-{}", std::process::id()));
+    let weights = std::fs::read(trained_weights(&dir)).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let solver = Solver::with_weights(Restarted::<3>, &weights, 0.0).expect("builds");
+
+    // One hypothesis, no other starts: the restarts at providers 3, 4, 5, Gauss-Newton each,
+    // after every other attempt.
+    let restarts: Vec<Attempt> = (0..3).map(|k| Attempt { provider: restart_provider(1, 0, k), method: Method::GaussNewton }).collect();
+    assert_eq!(restarts.iter().map(|a| a.provider).collect::<Vec<_>>(), [3, 4, 5]);
+    let schedule = solver.schedule();
+    assert!(schedule.len() > 3 && schedule.ends_with(&restarts), "schedule {schedule:?}");
+    assert_eq!(schedule.iter().filter(|a| a.provider >= 3).count(), 3, "nothing else at the restarts' providers");
+
+    let seed = 12;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for _ in 0..5 {
+        let (p, truth) = Restarted::<3>.scene(&mut rng, 0.0);
+        // The learned hypothesis, as the pipeline's own start attempt returns it (validated or not).
+        let hypothesis = match solver.run_pipeline(&p, &[Attempt { provider: 0, method: Method::Start }], false, None) {
+            Ok(s) => s.x[0],
+            Err(PipelineError::NotValidated(s)) => s.x[0],
+            Err(e) => panic!("the learned start: {e:?}"),
+        };
+        for (k, attempt) in restarts.iter().enumerate() {
+            RESTARTED_FROM.lock().unwrap().clear();
+            let result = solver.run_pipeline(&p, &[*attempt], false, None);
+            assert_eq!(*RESTARTED_FROM.lock().unwrap(), [(k, hypothesis)], "restart {k} is built on the learned hypothesis");
+            match (k, result) {
+                (1, Err(PipelineError::NoEndPoint { last: Some(e), .. })) => {
+                    assert!(e.to_string().contains("no restart 1"), "{e}")
+                }
+                (1, other) => panic!("restart 1 does not exist, yet: {other:?}"),
+                (_, Ok(solved)) => {
+                    assert!((solved.x[0] - truth[0]).abs() < 1e-9, "restart {k}: slope {} for {}", solved.x[0], truth[0]);
+                    assert_eq!(solved.origin, Origin::Path { provider: attempt.provider, method: Method::GaussNewton });
+                }
+                (_, Err(e)) => panic!("restart {k}: {e:?}"),
+            }
+        }
+    }
+
+    match Solver::with_weights(Restarted::<{ MAX_RESTARTS + 1 }>, &weights, 0.0) {
+        Err(e) => {
+            assert_eq!(e, SolverError::TooMany { problem: "restarted", what: "restarts", count: MAX_RESTARTS + 1, most: MAX_RESTARTS })
+        }
+        Ok(_) => panic!("a solver with more restarts than it holds"),
+    }
 }

@@ -36,22 +36,42 @@ pub const fn other_provider(hypotheses: usize, j: usize) -> usize {
     (if first > 3 { first } else { 3 }) + j
 }
 
-/// The attempts a solver runs after [`ranked_schedule`] for a problem with `starts` other
-/// starts and `simulators` other simulators ([`DeclaredProblem::other_starts`],
-/// [`DeclaredProblem::other_simulators`]): one path from every hypothesis with each other
-/// simulator, then for each other start Gauss-Newton, a path with the own simulator and one
-/// with each other simulator.
-pub fn other_attempts(hypotheses: usize, starts: usize, simulators: usize) -> Vec<Attempt> {
-    let mut out = Vec::new();
+/// Whether an attempt tracks a path (the costly kind: tens of microseconds and more, against a
+/// few for Gauss-Newton).
+fn is_path(a: &Attempt) -> bool {
+    matches!(a.method, Method::SimulatorHc | Method::OtherSimulatorHc(_))
+}
+
+/// The attempts of a solver over `hypotheses` ranked hypotheses of `base` (a schedule of one
+/// hypothesis, [`super::shipped_schedule`]), `starts` other starts, `simulators` other
+/// simulators and `restarts` restarts, cheap attempts before paths:
+///
+/// 1. the cheap attempts of [`ranked_schedule`] (refinements, Gauss-Newton) on every hypothesis;
+/// 2. Gauss-Newton from every other start ([`other_provider`]);
+/// 3. the paths of [`ranked_schedule`] on every hypothesis, then a path from every hypothesis
+///    with each other simulator;
+/// 4. from every other start, a path with the own simulator and one with each other simulator;
+/// 5. Gauss-Newton from every restart ([`super::restarts::restart_provider`]).
+///
+/// Why this order: a start that Gauss-Newton brings to a validated solution costs a few
+/// microseconds, a path tens to hundreds, so every start's Gauss-Newton comes before the first
+/// path (on GRPS this halves the retries' mean time at the same success, BENCHMARKS.md,
+/// 2026-12-04); restarts come last, as they are many.
+pub fn solver_schedule(base: &[Attempt], hypotheses: usize, starts: usize, simulators: usize, restarts: usize) -> Vec<Attempt> {
+    let ranked = ranked_schedule(base, hypotheses);
+    let (cheap, paths) = ranked.split_at(ranked.iter().position(is_path).unwrap_or(ranked.len()));
+    let other = |j: usize| other_provider(hypotheses, j);
+    let mut out = cheap.to_vec();
+    out.extend((0..starts).map(|j| Attempt { provider: other(j), method: Method::GaussNewton }));
+    out.extend_from_slice(paths);
     for k in 0..simulators {
         out.extend((0..hypotheses.max(1)).map(|rank| Attempt { provider: provider(rank, false), method: Method::OtherSimulatorHc(k) }));
     }
     for j in 0..starts {
-        let provider = other_provider(hypotheses, j);
-        out.push(Attempt { provider, method: Method::GaussNewton });
-        out.push(Attempt { provider, method: Method::SimulatorHc });
-        out.extend((0..simulators).map(|k| Attempt { provider, method: Method::OtherSimulatorHc(k) }));
+        out.push(Attempt { provider: other(j), method: Method::SimulatorHc });
+        out.extend((0..simulators).map(|k| Attempt { provider: other(j), method: Method::OtherSimulatorHc(k) }));
     }
+    out.extend(super::restarts::restart_attempts(hypotheses, starts, restarts));
     out
 }
 
@@ -62,12 +82,11 @@ pub fn other_attempts(hypotheses: usize, starts: usize, simulators: usize) -> Ve
 pub fn ranked_schedule(base: &[Attempt], hypotheses: usize) -> Vec<Attempt> {
     let mut out = Vec::with_capacity(base.len() * hypotheses.max(1));
     let map = |a: &Attempt, rank: usize| Attempt { provider: provider(rank, a.provider == 1), method: a.method };
-    let is_path = |a: &&Attempt| matches!(a.method, Method::SimulatorHc | Method::OtherSimulatorHc(_));
     for rank in 0..hypotheses.max(1) {
         out.extend(base.iter().filter(|a| !is_path(a)).map(|a| map(a, rank)));
     }
     for rank in 0..hypotheses.max(1) {
-        out.extend(base.iter().filter(is_path).map(|a| map(a, rank)));
+        out.extend(base.iter().filter(|a| is_path(a)).map(|a| map(a, rank)));
     }
     out
 }
@@ -216,17 +235,26 @@ mod tests {
     }
 
     #[test]
-    fn other_simulators_follow_the_hypotheses_and_other_starts_come_last() {
+    fn every_start_gets_gauss_newton_before_the_first_path_and_restarts_come_last() {
         let a = |provider, method| Attempt { provider, method };
+        let base = super::super::shipped_schedule(false);
+        // Two hypotheses (providers 0 and 3), one other start (5), one other simulator, two
+        // restarts (6, 7).
         let expect = [
+            a(0, Method::GaussNewton),
+            a(3, Method::GaussNewton),
+            a(5, Method::GaussNewton),
+            a(0, Method::SimulatorHc),
+            a(3, Method::SimulatorHc),
             a(0, Method::OtherSimulatorHc(0)),
             a(3, Method::OtherSimulatorHc(0)),
-            a(5, Method::GaussNewton),
             a(5, Method::SimulatorHc),
             a(5, Method::OtherSimulatorHc(0)),
+            a(6, Method::GaussNewton),
+            a(7, Method::GaussNewton),
         ];
-        assert_eq!(other_attempts(2, 1, 1), expect);
-        assert!(other_attempts(4, 0, 0).is_empty());
+        assert_eq!(solver_schedule(base, 2, 1, 1, 2), expect);
+        assert_eq!(solver_schedule(base, 4, 0, 0, 0), ranked_schedule(base, 4));
     }
 
     #[test]

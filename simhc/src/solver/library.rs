@@ -17,9 +17,10 @@
 //! when it ends validated and the problem's own hooks do not allocate (a
 //! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`).
 
-use super::hypotheses::{other_attempts, other_provider, provider, provider_count, ranked_schedule, RankedStart, RankedStarts};
+use super::hypotheses::{other_provider, provider, provider_count, solver_schedule, RankedStart, RankedStarts};
 use super::parts::{Canon, FirstRows, FirstRowsError, Refined};
 use super::problem::{DeclaredProblem, OtherSimulator, OtherStart};
+use super::restarts::{restart_provider, RestartStart, MAX_RESTARTS};
 use super::subsystem::AllRootsFallback;
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{
@@ -180,15 +181,17 @@ pub const MAX_OTHERS: usize = 8;
 /// Why a solver could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SolverError {
-    /// The problem brings more other starts or simulators than a solve holds.
-    #[error("{problem} brings {count} {what}; a solver takes at most {MAX_OTHERS}")]
+    /// The problem brings more other starts, simulators or restarts than a solve holds.
+    #[error("{problem} brings {count} {what}; a solver takes at most {most}")]
     TooMany {
         /// The problem's name.
         problem: &'static str,
-        /// `"other starts"` or `"other simulators"`.
+        /// `"other starts"`, `"other simulators"` or `"restarts"`.
         what: &'static str,
         /// How many it brings.
         count: usize,
+        /// How many a solver takes ([`MAX_OTHERS`], [`MAX_RESTARTS`]).
+        most: usize,
     },
     /// The problem ships no weights and none were given.
     #[error("{0} has no shipped weights: pass weights made by `train {0}`")]
@@ -225,8 +228,7 @@ where
     other_starts: Vec<OtherStart<NX, ND>>,
     /// [`DeclaredProblem::other_simulators`], made once.
     other_simulators: Vec<OtherSimulator<NX, NF, NP, ND>>,
-    /// [`shipped_schedule`] over the learned start's ranked hypotheses, then
-    /// [`other_attempts`].
+    /// [`solver_schedule`] of [`shipped_schedule`].
     schedule: Vec<Attempt>,
 }
 
@@ -253,14 +255,14 @@ where
             LearnedStart::with_outputs(network, S::Data::LAYOUT, ProblemRows::new(problem.clone()), ProblemOutputs::new(problem.clone()))?;
         let validator = problem.validator(noise);
         let (other_starts, other_simulators) = (problem.other_starts(), problem.other_simulators());
-        for (what, count) in [("other starts", other_starts.len()), ("other simulators", other_simulators.len())] {
-            if count > MAX_OTHERS {
-                return Err(SolverError::TooMany { problem: S::NAME, what, count });
+        let counts = [("other starts", other_starts.len(), MAX_OTHERS), ("other simulators", other_simulators.len(), MAX_OTHERS)];
+        for (what, count, most) in counts.into_iter().chain([("restarts", S::RESTARTS, MAX_RESTARTS)]) {
+            if count > most {
+                return Err(SolverError::TooMany { problem: S::NAME, what, count, most });
             }
         }
         let hypotheses = learned.hypotheses();
-        let mut schedule = ranked_schedule(shipped_schedule(S::REFINES), hypotheses);
-        schedule.extend(other_attempts(hypotheses, other_starts.len(), other_simulators.len()));
+        let schedule = solver_schedule(shipped_schedule(S::REFINES), hypotheses, other_starts.len(), other_simulators.len(), S::RESTARTS);
         Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule })
     }
 
@@ -280,9 +282,10 @@ where
     }
 
     /// The attempts of [`Solver::solve`]: [`shipped_schedule`] over the learned start's ranked
-    /// hypotheses ([`ranked_schedule`]; the providers are laid out as
-    /// [`super::hypotheses::provider`] says), then the problem's other simulators and starts
-    /// ([`other_attempts`], at [`super::hypotheses::other_provider`]).
+    /// hypotheses, the problem's other starts and simulators and its restarts, every start's
+    /// Gauss-Newton before the first path ([`solver_schedule`]; the providers are laid out as
+    /// [`super::hypotheses::provider`], [`super::hypotheses::other_provider`] and
+    /// [`super::restarts::restart_provider`] say).
     pub fn schedule(&self) -> &[Attempt] {
         &self.schedule
     }
@@ -328,7 +331,9 @@ where
         let refined: [Refined<'_, S, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
             std::array::from_fn(|rank| Refined { inner: &ranked[rank], problem: &*self.problem });
         let none = NoStart;
-        const SLOTS: usize = provider_count(MAX_HYPOTHESES) + MAX_OTHERS;
+        let restarts: [RestartStart<'_, '_, S, _, _, NX, NF, NP, NC, ND>; MAX_RESTARTS] =
+            std::array::from_fn(|k| RestartStart { set: &set, problem: &*self.problem, k });
+        const SLOTS: usize = provider_count(MAX_HYPOTHESES) + MAX_OTHERS + MAX_RESTARTS;
         let mut starts: [&dyn StartProvider<SVector<f64, ND>, NX>; SLOTS] = [&none; SLOTS];
         for rank in 0..set.count() {
             starts[provider(rank, false)] = &ranked[rank];
@@ -340,7 +345,11 @@ where
         for (j, other) in self.other_starts.iter().enumerate() {
             starts[other_provider(set.count(), j)] = &**other;
         }
-        let starts = &starts[..other_provider(set.count(), self.other_starts.len())];
+        let others = self.other_starts.len();
+        for (k, restart) in restarts.iter().enumerate().take(S::RESTARTS) {
+            starts[restart_provider(set.count(), others, k)] = restart;
+        }
+        let starts = &starts[..restart_provider(set.count(), others, S::RESTARTS)];
         let mut others: [&dyn StartSimulator<SVector<f64, ND>, NX, NF, NP>; MAX_OTHERS] = [&simulator; MAX_OTHERS];
         for (slot, other) in others.iter_mut().zip(&self.other_simulators) {
             *slot = &**other;

@@ -15,6 +15,7 @@
 //! - [`subsystem`]: all roots of a square subsystem;
 //! - [`hypotheses`]: a learned start's several hypotheses, ranked on the data;
 //! - [`library`]: the solver, [`Solver`];
+//! - [`restarts`]: restarts around the learned start, before the fallback;
 //! - [`estimate`]: the robust estimator, [`Solver::estimate`].
 
 pub mod estimate;
@@ -22,6 +23,7 @@ pub mod hypotheses;
 pub mod library;
 pub mod parts;
 pub mod problem;
+pub mod restarts;
 pub mod subsystem;
 
 pub use estimate::{row_residual, EstimateError, EstimateInfo};
@@ -30,4 +32,5 @@ pub use library::{
 };
 pub use parts::{Canon, FirstRows, FirstRowsError, RandomStart, Refined};
 pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, UnknownsMap};
+pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
 pub use subsystem::{AllRoots, AllRootsFallback, SquareSubsystem};

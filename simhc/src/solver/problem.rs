@@ -49,6 +49,9 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// Whether [`DeclaredProblem::refine`] is implemented: the shipped schedule then starts
     /// with Gauss-Newton on all rows, and bench adds that row.
     const REFINES: bool = false;
+    /// How many restarts [`DeclaredProblem::restart`] makes (at most [`super::MAX_RESTARTS`]:
+    /// more is a [`super::SolverError::TooMany`]). Default: none.
+    const RESTARTS: usize = 0;
 
     /// A scene with noise of size `noise` (the problem's unit, for example pixels): the
     /// parameters of all its rows (`Data`) and its true unknowns.
@@ -141,6 +144,16 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// at most [`super::MAX_OTHERS`]. Default: none.
     fn other_simulators(&self) -> Vec<OtherSimulator<NX, NF, NP, ND>> {
         Vec::new()
+    }
+    /// Restart `k` around `x`, the learned start's first-ranked hypothesis for the data `p`
+    /// (both in the canonical frame, if [`DeclaredProblem::canonicalize`] makes one): a start
+    /// for Gauss-Newton on the tracked rows, tried after every other attempt and before the
+    /// all-roots fallback, for `k` in `0..RESTARTS` ([`super::restarts`]). For a layout with a
+    /// rotation, [`super::rotated_restart`] turns the prediction about fixed axes; a problem
+    /// can then re-solve the unknowns that follow from the rotation (GRPS: the least-squares
+    /// translation and scale). `None` (the default): no restart `k`.
+    fn restart(&self, _p: &SVector<f64, ND>, _x: &SVector<f64, NX>, _k: usize) -> Option<SVector<f64, NX>> {
+        None
     }
     /// All roots of a square subsystem: the pipeline's fallback, the All-roots bench row and
     /// `monodromy` ([`super::SquareSubsystem`]).

@@ -129,13 +129,59 @@ fn grps_solvers_dispatch_by_count() {
         }
     }
     assert!(solved[1] >= 9 && solved[0] >= 7, "solved (7, 8 pts): {solved:?}");
-    let scene = GrpsSceneConfig { points: 9, ..GrpsSceneConfig::default() }.sample_seeded(1).expect("valid config");
-    assert_eq!(solvers.solve(&scene.correspondences).unwrap_err(), GrpsSolversError::Count(9));
+    let scene = GrpsSceneConfig { points: 12, ..GrpsSceneConfig::default() }.sample_seeded(1).expect("valid config");
     assert_eq!(solvers.solve(&scene.correspondences[..6]).unwrap_err(), GrpsSolversError::Count(6));
     let mut bad = scene.correspondences[..8].to_vec();
     bad[3].fp.y = f64::NAN;
     let err = solvers.solve(&bad).unwrap_err().to_string();
     assert!(err.contains("row 3") && err.contains("fp"), "{err}");
+    // Past the 8th correspondence: a NaN is named by its row and field, a zero bearing by its
+    // correspondence.
+    let mut bad = scene.correspondences.clone();
+    bad[10].v.x = f64::INFINITY;
+    let err = solvers.solve(&bad).unwrap_err().to_string();
+    assert!(err.contains("row 10") && err.contains("field `v`"), "{err}");
+    let mut bad = scene.correspondences.clone();
+    bad[9].f = nalgebra::Vector3::zeros();
+    let err = solvers.solve(&bad).unwrap_err();
+    assert_eq!(err, GrpsSolversError::Degenerate(simhc_problems::grps::geometry::GrpsError::ZeroBearing { index: 9 }));
+}
+
+/// More than 8 correspondences: solved on the first 8, refined on all, validated on all. With
+/// noise the refined pose is at least as good on all correspondences as the 8-point one, and a
+/// wrong match past the 8th makes the solve fail validation (flagged), never `Ok`.
+#[test]
+fn grps_solvers_refine_on_all_correspondences() {
+    let seed = 31;
+    println!("seed {seed}");
+    let noisy = GrpsSolvers::new(1.0).expect("shipped weights");
+    let problem = Grps8Problem::new();
+    let (mut solved, mut better) = (0, 0);
+    for k in 0..10 {
+        let config = GrpsSceneConfig { points: 30, noise_px: 1.0, ..GrpsSceneConfig::default() };
+        let scene = config.sample_seeded(seed + k).expect("valid config");
+        let truth = unknowns_of(&scene.rotation, &scene.translation, scene.scale);
+        let Ok(all) = noisy.solve(&scene.correspondences) else { continue };
+        solved += 1;
+        assert!(all.check.max_angle.is_finite() && all.check.behind == 0, "{:?}", all.check);
+        let eight = noisy.solve(&scene.correspondences[..8]).map(|s| problem.errors(&s.x, &truth)[0]);
+        let e_all = problem.errors(&all.x, &truth);
+        assert!(e_all[0] < 2.0, "seed {}: E_R {} deg on 30 correspondences", seed + k, e_all[0]);
+        better += usize::from(eight.is_ok_and(|e8| e_all[0] <= e8));
+    }
+    assert!(solved >= 8, "{solved} of 10 noisy 30-correspondence scenes");
+    assert!(better >= solved / 2, "the refinement on all 30 improved E_R on {better} of {solved}");
+
+    let exact = GrpsSolvers::new(0.0).expect("shipped weights");
+    let scene = GrpsSceneConfig { points: 12, ..GrpsSceneConfig::default() }.sample_seeded(seed).expect("valid config");
+    let other = GrpsSceneConfig { points: 12, ..GrpsSceneConfig::default() }.sample_seeded(seed + 100).expect("valid config");
+    assert!(exact.solve(&scene.correspondences).is_ok());
+    let mut wrong = scene.correspondences.clone();
+    wrong[11] = other.correspondences[11];
+    match exact.solve(&wrong) {
+        Err(GrpsSolversError::Solve(simhc::solver::SolveError::NotValidated { check, .. })) => assert!(check.max_angle > 1e-6, "{check:?}"),
+        other => panic!("a wrong match past the 8th: {other:?}"),
+    }
 }
 
 /// The runtime's robust estimator on GRPS (the declared angular `row_error`): 60

@@ -18,14 +18,17 @@
 //! - the restarts ([`DeclaredProblem::restart`]) are [`GrpsSolver`]'s 65: the prediction turned
 //!   by 20-180 degrees about 13 fixed axes, with least-squares `(t, s)`.
 //!
-//! What the hand-assembled solver has and this one has not: the refinement on more than 8
-//! correspondences, and its plausible-then-best acceptance of noisy end points. BENCHMARKS.md
+//! [`GrpsSolvers`] takes any number of correspondences from 7: more than 8 are solved on the
+//! first 8, refined on all and validated on all, as [`GrpsSolver`] does. What the
+//! hand-assembled solver has and this one has not: its plausible-then-best acceptance of noisy
+//! end points (more attempts after a plausible one, the best returned). BENCHMARKS.md
 //! (2026-12-04, evening) has the measured difference on the same trials.
 //!
 //! [`Solver`]: simhc::solver::Solver
 
 use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
-use super::refine::{angular_residual, translation_scale_for_rotation};
+use super::geometry::{GrpsError, ZERO_BEARING_NORM};
+use super::refine::{angular_residual, refine_pose, translation_scale_for_rotation, LmOptions};
 use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
 use super::solver::{GrpsPose, GrpsSolver, GrpsSolverOptions, GrpsValidator, Validation, GRPS_RESTART_ANGLES_DEG, GRPS_WEIGHTS};
 use super::{correspondence_of_row, correspondences_of, row_numbers, unknowns_of, Grps7, Grps8, ROW_LEN};
@@ -35,10 +38,13 @@ use nalgebra::{Matrix3, SVector, Vector3};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::all_roots::AllRootsOptions;
+use simhc::layout::Layout;
+use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::pipeline::path::gauss_newton;
-use simhc::pipeline::{Generic, InputRows, OutputDecoding, StartError, StartProvider};
+use simhc::pipeline::{Generic, InputRows, OutputDecoding, StartError, StartProvider, Validator, Verdict};
 use simhc::solver::{
-    rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, Solver, SolverError,
+    rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, Solution, SolveError, Solver,
+    SolverError,
 };
 use simhc::start_system::{MonodromyConfig, MonodromyReport, StartSystemError};
 use simhc::{MinNormSimulator, ProblemLayout};
@@ -373,7 +379,8 @@ grps_problem!(
 grps_problem!(8, Grps8, 9, 96, "grps8", "Generalized relative pose and scale, 8 correspondences, through the generic solver assembly");
 
 /// The generic solvers of GRPS on 7 and on 8 correspondences behind one call that picks the
-/// instance by the number of correspondences. Both return the runtime's own
+/// instance by the number of correspondences; more than 8 are solved on the first 8, refined
+/// on all of them and validated again on all. Both return the runtime's own
 /// [`simhc::solver::Solution`] and [`simhc::solver::SolveError`] (the same types for both
 /// instances, nothing translated).
 pub struct GrpsSolvers {
@@ -386,13 +393,16 @@ pub struct GrpsSolvers {
 /// Why [`GrpsSolvers::solve`] did not return a validated pose.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum GrpsSolversError {
-    /// Neither 7 nor 8 correspondences (more: the robust estimator, or [`GrpsSolver`], which
-    /// refines on all of them).
-    #[error("{0} correspondences: the generic GRPS solvers take 7 or 8")]
+    /// Fewer than 7 correspondences.
+    #[error("{0} correspondences: GRPS needs at least 7")]
     Count(usize),
+    /// More than 8 correspondences, and those past the 8th are degenerate (a zero bearing; the
+    /// first 8 are the solve's own input, checked by it).
+    #[error("correspondences past the 8th: {0}")]
+    Degenerate(GrpsError),
     /// The solve's own error ([`simhc::solver::SolveError`]: input, flagged, no end point).
     #[error(transparent)]
-    Solve(#[from] simhc::solver::SolveError<Validation, 8>),
+    Solve(#[from] SolveError<Validation, 8>),
 }
 
 impl GrpsSolvers {
@@ -404,14 +414,45 @@ impl GrpsSolvers {
         })
     }
 
-    /// Solves 7 or 8 correspondences with the instance of that count.
-    pub fn solve(&self, corrs: &[GrpsCorrespondence]) -> Result<simhc::solver::Solution<Validation, 8>, GrpsSolversError> {
+    /// Solves 7 or 8 correspondences with the instance of that count; more: the first 8, then
+    /// the pose refined on all ([`refine_pose`], Levenberg-Marquardt on the angular residuals)
+    /// and validated on all (the refined pose, or the unrefined one where that validates
+    /// better). A NaN names its correspondence and field.
+    pub fn solve(&self, corrs: &[GrpsCorrespondence]) -> Result<Solution<Validation, 8>, GrpsSolversError> {
         if let Some(p) = params_of::<84>(corrs) {
             return Ok(self.seven.solve(&p)?);
         }
-        if let Some(p) = params_of::<96>(corrs) {
-            return Ok(self.eight.solve(&p)?);
+        let Some(first) = corrs.get(..8) else { return Err(GrpsSolversError::Count(corrs.len())) };
+        if corrs.len() > 8 {
+            // The first 8 rows are checked by the solve; a NaN past them is named here, in the
+            // same terms (row and field of the declared layout, counted over all rows).
+            if let Some(index) = row_numbers(corrs).position(|v| !v.is_finite()) {
+                let layout = Layout { rows: corrs.len(), ..Grps8::LAYOUT };
+                return Err(SolveError::Input(NonFiniteParameter::locate(&layout, index).into()).into());
+            }
+            if let Some(index) = (8..corrs.len()).find(|&i| corrs[i].f.norm().min(corrs[i].fp.norm()) <= ZERO_BEARING_NORM) {
+                return Err(GrpsSolversError::Degenerate(GrpsError::ZeroBearing { index }));
+            }
         }
-        Err(GrpsSolversError::Count(corrs.len()))
+        let p = params_of::<96>(first).expect("8 correspondences");
+        let solution = self.eight.solve(&p)?;
+        if corrs.len() == 8 {
+            return Ok(solution);
+        }
+        let validator = self.eight.validator();
+        let unrefined = (solution.x, validator.check(corrs, &solution.x));
+        let refined = GrpsPose::from_unknowns(&solution.x).map(|pose| {
+            let r = refine_pose(&pose.rotation, &pose.translation, pose.scale, corrs, &LmOptions::default());
+            let x = unknowns_of(&r.rotation, &r.translation, r.scale);
+            (x, validator.check(corrs, &x))
+        });
+        let (x, check) = match refined {
+            Some(r) if !Validator::<[GrpsCorrespondence], 8>::better(validator, &unrefined.1, &r.1) => r,
+            _ => unrefined,
+        };
+        match Validator::<[GrpsCorrespondence], 8>::verdict(validator, &check) {
+            Verdict::Reject => Err(SolveError::NotValidated { best: x, check, attempts: solution.attempts }.into()),
+            Verdict::Accept | Verdict::Plausible => Ok(Solution { x, check, ..solution }),
+        }
     }
 }

@@ -158,16 +158,36 @@ impl OutputDecoding for GrpsOutputs {
 }
 
 /// A start from the shipped network beside the learned start's own hypotheses, as in
-/// [`GrpsSolver`]'s starts of the same names: the network on the swapped views (view 2 first,
-/// its pose mapped back by [`swap_pose`]: a second, different input), and the predicted or
-/// swapped rotation with its least-squares translation and scale. Tried only after the learned
-/// hypotheses; each runs the network again and allocates (a `Vec` of correspondences).
+/// [`GrpsSolver`]'s starts of the same names (one per [`PredictedKind`]). Tried only after the
+/// learned hypotheses' Gauss-Newton; allocates (a `Vec` of correspondences).
 pub struct PredictedStart {
     solver: GrpsSolver,
-    /// The network on the swapped views.
-    swapped: bool,
-    /// Only the rotation, with its least-squares `(t, s)` (`s > 0`).
-    least_squares: bool,
+    kind: PredictedKind,
+}
+
+/// Which [`PredictedStart`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PredictedKind {
+    /// The predicted rotation with its least-squares translation and scale (`s > 0`).
+    RotationLeastSquares,
+    /// The network on the swapped views (view 2 first, its pose mapped back by [`swap_pose`]: a
+    /// second, different input).
+    Swapped,
+    /// The swapped prediction's rotation with its least-squares translation and scale.
+    SwappedRotationLeastSquares,
+}
+
+impl PredictedKind {
+    /// All three, in the order they are tried.
+    pub const ALL: [PredictedKind; 3] = [Self::RotationLeastSquares, Self::Swapped, Self::SwappedRotationLeastSquares];
+
+    fn swapped(self) -> bool {
+        self != Self::RotationLeastSquares
+    }
+
+    fn least_squares(self) -> bool {
+        self != Self::Swapped
+    }
 }
 
 /// A predicted pose `(R, t, s)`, or why there is none.
@@ -184,18 +204,17 @@ thread_local! {
 
 impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for PredictedStart {
     fn name(&self) -> &'static str {
-        match (self.swapped, self.least_squares) {
-            (false, false) => "learned",
-            (false, true) => "learned rotation, least-squares (t, s)",
-            (true, false) => "learned, swapped views",
-            (true, true) => "learned, swapped views, rotation with least-squares (t, s)",
+        match self.kind {
+            PredictedKind::RotationLeastSquares => "learned rotation, least-squares (t, s)",
+            PredictedKind::Swapped => "learned, swapped views",
+            PredictedKind::SwappedRotationLeastSquares => "learned, swapped views, rotation with least-squares (t, s)",
         }
     }
     fn start(&self, p: &SVector<f64, NP>) -> Result<Unknowns, StartError> {
         let fail = |reason: String| StartError { provider: "predicted", reason };
         let corrs: Vec<GrpsCorrespondence> = p.as_slice().chunks_exact(ROW_LEN).map(correspondence_of_row).collect();
         let predict = || {
-            let pose = if self.swapped {
+            let pose = if self.kind.swapped() {
                 let pose = self.solver.predict(&swap_views(&corrs)).map_err(|e| e.to_string())?;
                 swap_pose(&pose.rotation, &pose.translation, pose.scale)
             } else {
@@ -206,7 +225,7 @@ impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for PredictedStart {
         };
         let (r, t, s) = PREDICTED
             .with_borrow_mut(|cache| {
-                let (data, pose) = &mut cache[usize::from(self.swapped)];
+                let (data, pose) = &mut cache[usize::from(self.kind.swapped())];
                 if data.as_slice() != p.as_slice() {
                     data.clear();
                     data.extend_from_slice(p.as_slice());
@@ -215,7 +234,7 @@ impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for PredictedStart {
                 pose.clone()
             })
             .map_err(fail)?;
-        if !self.least_squares {
+        if !self.kind.least_squares() {
             return Ok(unknowns_of(&r, &t, s));
         }
         match translation_scale_for_rotation(&r, &corrs) {
@@ -323,12 +342,7 @@ macro_rules! grps_problem {
             /// rotation with least-squares `(t, s)` ([`PredictedStart`]).
             fn other_starts(&self) -> Vec<OtherStart<8, $np>> {
                 let Ok(solver) = GrpsSolver::new() else { return Vec::new() };
-                [(false, true), (true, false), (true, true)]
-                    .into_iter()
-                    .map(|(swapped, least_squares)| {
-                        Box::new(PredictedStart { solver: solver.clone(), swapped, least_squares }) as OtherStart<8, $np>
-                    })
-                    .collect()
+                PredictedKind::ALL.map(|kind| Box::new(PredictedStart { solver: solver.clone(), kind }) as OtherStart<8, $np>).into()
             }
             fn other_simulators(&self) -> Vec<OtherSimulator<8, $nf, $np, $np>> {
                 vec![Box::new(Generic(MinNormSimulator::<$instance>::new()))]

@@ -197,6 +197,19 @@ impl StartKind {
 /// declared problems' [`simhc::solver::DeclaredProblem::restart`].
 pub const GRPS_RESTART_ANGLES_DEG: [f64; 5] = [20.0, 45.0, 90.0, 135.0, 180.0];
 
+/// The pipeline's settings of `o`: its tracker, Gauss-Newton and extra attempts; the fallback
+/// when `o` has one and more than one attempt; end points the tracker returns short of its
+/// final tolerance are polished (module docs).
+pub fn pipeline_options(o: &GrpsSolverOptions) -> PipelineOptions {
+    PipelineOptions {
+        tracker: o.tracker,
+        extra_attempts: o.extra_attempts,
+        fallback: o.all_roots_fallback && o.max_attempts > 1,
+        newton: o.newton,
+        polish: true,
+    }
+}
+
 /// Solver settings; the default is the shipped configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GrpsSolverOptions {
@@ -643,14 +656,7 @@ impl GrpsSolver {
         let others: [&dyn StartSimulator<[GrpsCorrespondence], 8, NF, NP>; 1] = [&generic];
         let validator = GrpsValidator::of(o);
         let fallback = AllRootsFallback { base: hypotheses.base, newton: o.newton };
-        let options = PipelineOptions {
-            tracker: o.tracker,
-            extra_attempts: o.extra_attempts,
-            fallback: o.all_roots_fallback && o.max_attempts > 1,
-            newton: o.newton,
-            // End points the tracker returns short of its final tolerance are polished (module docs).
-            polish: true,
-        };
+        let options = pipeline_options(o);
         run(Pipeline::new(&target, &starts, &geometric, &validator)
             .with_other_simulators(&others)
             .with_fallback(&fallback)

@@ -317,3 +317,62 @@ fn restarts_start_from_the_learned_hypothesis_and_come_last() {
         Ok(_) => panic!("a solver with more restarts than it holds"),
     }
 }
+
+/// The line whose solve settings (`DeclaredProblem::options`) allow a path one step.
+struct OneStep;
+
+impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for OneStep {
+    type Tracked = Line3;
+    type Data = Line3;
+    type Validator = Residual;
+    const NAME: &'static str = "one-step";
+    const ABOUT: &'static str = "a line through the origin, paths of one step";
+    const ERRORS: &'static [&'static str] = &["slope error"];
+    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
+        Line.scene(rng, noise)
+    }
+    fn validator(&self, noise: f64) -> Residual {
+        Line.validator(noise)
+    }
+    fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
+        Line.errors(x, truth)
+    }
+    fn correct(&self, errors: &[f64]) -> bool {
+        Line.correct(errors)
+    }
+    fn options(&self) -> simhc::pipeline::PipelineOptions {
+        let mut o = simhc::pipeline::PipelineOptions::default();
+        o.tracker.max_steps = 1;
+        o
+    }
+}
+
+#[test]
+fn the_problems_solve_settings_reach_every_path() {
+    use rand::SeedableRng;
+    let dir = std::env::temp_dir().join(format!("simhc-one-step-{}", std::process::id()));
+    let weights = std::fs::read(trained_weights(&dir)).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let (line, one_step) = (Solver::with_weights(Line, &weights, 0.0).unwrap(), Solver::with_weights(OneStep, &weights, 0.0).unwrap());
+    let path = [Attempt { provider: 0, method: Method::SimulatorHc }];
+    let seed = 13;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut limited = 0;
+    for _ in 0..5 {
+        let (p, _) = Line.scene(&mut rng, 0.0);
+        // The same path with the default settings solves; with one step it stops at the limit
+        // (unless the learned start is already the root).
+        let solved = line.run_pipeline(&p, &path, false, None).expect("the default settings track the line");
+        assert_eq!(solved.origin, Origin::Path { provider: 0, method: Method::SimulatorHc });
+        match one_step.run_pipeline(&p, &path, false, None) {
+            Err(PipelineError::NoEndPoint { last: Some(e), .. }) => {
+                assert!(e.to_string().to_lowercase().contains("step"), "{e}");
+                limited += 1;
+            }
+            Ok(_) => {}
+            other => panic!("one step: {other:?}"),
+        }
+    }
+    assert!(limited >= 4, "{limited} of 5 paths stopped at the one-step limit");
+}

@@ -230,6 +230,8 @@ where
     other_simulators: Vec<OtherSimulator<NX, NF, NP, ND>>,
     /// [`solver_schedule`] of [`shipped_schedule`].
     schedule: Vec<Attempt>,
+    /// [`DeclaredProblem::options`], made once.
+    options: PipelineOptions,
 }
 
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Solver<S, NX, NF, NP, NC, ND>
@@ -263,7 +265,8 @@ where
         }
         let hypotheses = learned.hypotheses();
         let schedule = solver_schedule(shipped_schedule(S::REFINES), hypotheses, other_starts.len(), other_simulators.len(), S::RESTARTS);
-        Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule })
+        let options = problem.options();
+        Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule, options })
     }
 
     /// The problem.
@@ -359,7 +362,7 @@ where
         let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, starts, &simulator, &self.validator)
             .with_schedule(schedule)
             .with_other_simulators(others)
-            .with_options(PipelineOptions { fallback, ..PipelineOptions::default() });
+            .with_options(PipelineOptions { fallback, ..self.options });
         if let Some(f) = &all_roots {
             pipeline = pipeline.with_fallback(f);
         }

@@ -5,7 +5,7 @@
 //! `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same trait.
 
 use super::subsystem::AllRoots;
-use crate::pipeline::{InputRows, OutputDecoding, StartProvider, StartSimulator, Validator};
+use crate::pipeline::{InputRows, OutputDecoding, PipelineOptions, StartProvider, StartSimulator, Validator};
 use crate::training::LearnedStartConfig;
 use crate::{CoefficientForm, InstanceSizes, OnlineSimulator, ParamDerivative, ProblemLayout};
 use nalgebra::SVector;
@@ -97,6 +97,15 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// fits the unknowns), and the weights come from the problem's own trainer.
     fn outputs(&self) -> Option<&dyn OutputDecoding> {
         None
+    }
+    /// Settings of a solve's attempts: the tracker of every path, Gauss-Newton, the polish of
+    /// end points short of the tracker's tolerance, and how many more attempts run after a
+    /// plausible end point ([`crate::pipeline::Verdict::Plausible`], the best then returned).
+    /// The solver sets `fallback` itself (on for [`super::Solver::solve`], off on a RANSAC
+    /// sample). Called once, when a [`super::Solver`] is built. Default:
+    /// [`PipelineOptions::default`].
+    fn options(&self) -> PipelineOptions {
+        PipelineOptions::default()
     }
     /// Training settings of the learned start (`train` overrides samples, epochs and seed):
     /// plain data, the trainer is `simhc-regressor`.

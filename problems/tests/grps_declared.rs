@@ -251,3 +251,29 @@ fn a_restart_turns_the_prediction_and_resolves_translation_and_scale() {
         .collect();
     assert!(schedule.ends_with(&tail), "{schedule:?}");
 }
+
+/// Degenerate geometry is a typed input error naming what is wrong, never a pose: a central
+/// view (all rays of one view from one origin: the scale is unobservable, and every scale fits
+/// the data) and a zero bearing, through the library solver and the dispatch.
+#[test]
+fn degenerate_geometry_is_an_input_error() {
+    let solver = Solver::new(Grps8Problem::new()).expect("shipped weights");
+    let solvers = GrpsSolvers::new(0.0).expect("shipped weights");
+    let scene = GrpsSceneConfig::default().sample_seeded(5).expect("valid config");
+    let mut central = scene.correspondences[..8].to_vec();
+    for c in &mut central {
+        c.v = central_origin();
+    }
+    let err = solver.solve(&params_of::<96>(&central).unwrap()).unwrap_err().to_string();
+    assert!(err.contains("view 1") && err.contains("scale unobservable"), "{err}");
+    let err = solvers.solve(&central).unwrap_err().to_string();
+    assert!(err.contains("view 1") && err.contains("scale unobservable"), "{err}");
+    let mut zero = scene.correspondences[..8].to_vec();
+    zero[5].fp = nalgebra::Vector3::zeros();
+    let err = solver.solve(&params_of::<96>(&zero).unwrap()).unwrap_err().to_string();
+    assert!(err.contains("row 5") && err.contains("zero-length bearing"), "{err}");
+}
+
+fn central_origin() -> nalgebra::Vector3<f64> {
+    nalgebra::Vector3::new(0.1, -0.2, 0.3)
+}

@@ -29,7 +29,7 @@
 //! [`Solver`]: simhc::solver::Solver
 
 use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
-use super::geometry::{GrpsError, ZERO_BEARING_NORM};
+use super::geometry::{validate, GrpsError, ZERO_BEARING_NORM};
 use super::refine::{angular_residual, refine_pose, translation_scale_for_rotation, LmOptions};
 use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
 use super::solver::{
@@ -47,8 +47,8 @@ use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::pipeline::path::gauss_newton;
 use simhc::pipeline::{Generic, InputRows, OutputDecoding, PipelineOptions, StartError, StartProvider, Validator, Verdict};
 use simhc::solver::{
-    rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, Solution, SolveError, Solver,
-    SolverError,
+    rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, DegenerateInput, OtherSimulator, OtherStart, Refinement, Solution,
+    SolveError, Solver, SolverError,
 };
 use simhc::start_system::{MonodromyConfig, MonodromyReport, StartSystemError};
 use simhc::{MinNormSimulator, ProblemLayout};
@@ -112,6 +112,21 @@ fn map_unknowns(x: &Unknowns, map: impl Fn(&Matrix3<f64>, &Vector3<f64>, f64) ->
             unknowns_of(&r, &t, s)
         }
         None => Unknowns::from_element(f64::NAN),
+    }
+}
+
+/// A GRPS input error as the runtime's [`DegenerateInput`].
+fn degenerate(e: GrpsError) -> DegenerateInput {
+    let at = |row: usize, reason| DegenerateInput { row: Some(row), reason };
+    let all = |reason| DegenerateInput { row: None, reason };
+    match e {
+        GrpsError::ZeroBearing { index } => at(index, "zero-length bearing (f or fp)"),
+        GrpsError::NonFinite { index } => at(index, "non-finite value"),
+        GrpsError::Degenerate { index } => at(index, "degenerate simulated ray"),
+        GrpsError::SingleCameraPair => all("all correspondences from one camera pair: scale unobservable"),
+        GrpsError::CentralView { view: 1 } => all("all rays of view 1 share one origin: scale unobservable"),
+        GrpsError::CentralView { .. } => all("all rays of view 2 share one origin: scale unobservable"),
+        GrpsError::TooFewCorrespondences { .. } => all("too few correspondences: GRPS needs at least 7"),
     }
 }
 
@@ -304,6 +319,10 @@ macro_rules! grps_problem {
             /// The paper's criterion: `E_R < 2 deg`, `E_t < 5 %`, `E_s < 5 %`.
             fn correct(&self, e: &[f64]) -> bool {
                 e.len() == 3 && e[0] < 2.0 && e[1] < 5.0 && e[2] < 5.0
+            }
+            /// [`validate`]: zero bearings, a single camera pair, a central view.
+            fn check_input(&self, p: &SVector<f64, $np>) -> Result<(), DegenerateInput> {
+                validate(&correspondences_of::<$rows>(p.as_slice())).map_err(degenerate)
             }
             fn refine(&self, p: &SVector<f64, $np>, x0: &Unknowns) -> Refinement<8> {
                 gauss_newton::<$instance, 8, $nf, $np>(x0, p, &Default::default()).map(|(x, _)| x).into()

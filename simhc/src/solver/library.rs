@@ -326,6 +326,7 @@ where
         if let Some(index) = p.iter().position(|v| !v.is_finite()) {
             return Err(PipelineError::Input(NonFiniteParameter::locate(&S::Data::LAYOUT, index).into()));
         }
+        self.problem.check_input(p).map_err(|e| PipelineError::Input(e.into()))?;
         let target = FirstRows::<S::Tracked>::new();
         let simulator = Generic(S::Tracked::default());
         let set = RankedStarts::new(&self.learned, &*self.problem);

@@ -51,12 +51,27 @@ impl<Q: ProblemLayout> Default for FirstRows<Q> {
     }
 }
 
-/// Why [`FirstRows`] cannot make the tracked parameters.
+/// Data that no solve can use ([`DeclaredProblem::check_input`]): where and why. Plain data,
+/// so that a check allocates nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("{}{reason}", match row { Some(r) => format!("row {r}: "), None => String::new() })]
+pub struct DegenerateInput {
+    /// The row (correspondence) at fault, `None` when the rows together are (all rays from one
+    /// origin, all points on a line).
+    pub row: Option<usize>,
+    /// What is wrong, and what it makes unobservable.
+    pub reason: &'static str,
+}
+
+/// Why [`FirstRows`] cannot make the tracked parameters, or the data is not a problem instance.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum FirstRowsError {
     /// A parameter of the user's data is NaN or infinite.
     #[error(transparent)]
     NonFinite(#[from] NonFiniteParameter),
+    /// The data is degenerate ([`DeclaredProblem::check_input`]).
+    #[error(transparent)]
+    Degenerate(#[from] DegenerateInput),
     /// The tracked instance is not a first-rows part of the data.
     #[error("the tracked instance has {tracked} parameters, which are not the first rows and the globals of the data's {data}")]
     Sizes {

@@ -4,6 +4,7 @@
 //! fallback, a per-correspondence error). [`super::Solver`] assembles a solve from it; the
 //! `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same trait.
 
+use super::parts::DegenerateInput;
 use super::subsystem::AllRoots;
 use crate::pipeline::{InputRows, OutputDecoding, PipelineOptions, StartProvider, StartSimulator, Validator};
 use crate::training::LearnedStartConfig;
@@ -63,6 +64,14 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// Whether errors of [`DeclaredProblem::errors`] count as a success.
     fn correct(&self, errors: &[f64]) -> bool;
 
+    /// Rejects data that no solve can use, before any attempt: a zero bearing, all rays from one
+    /// origin (a scale that the data does not fix), too little spread. Such data has no
+    /// isolated solution, so attempts fail slowly or, worse, validate one of a family; a
+    /// [`DegenerateInput`] says which row and why. NaN and infinity are checked before this
+    /// (the error names the row and field). Default: every finite data vector is used.
+    fn check_input(&self, _p: &SVector<f64, ND>) -> Result<(), DegenerateInput> {
+        Ok(())
+    }
     /// Gauss-Newton on all the data's rows from `x0` (typically one line:
     /// `crate::pipeline::path::gauss_newton::<Self::Data, NX, NFD, ND>(x0, p, &Default::default())`).
     /// With validation rows this is far more selective than Gauss-Newton on the tracked

@@ -78,6 +78,29 @@ impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Line {
     }
 }
 
+/// The items every variant of the line shares with [`Line`]: its instances, validator,
+/// scenes and errors (a variant adds its name and the hook it tests).
+macro_rules! like_line {
+    () => {
+        type Tracked = Line3;
+        type Data = Line3;
+        type Validator = Residual;
+        const ERRORS: &'static [&'static str] = &["slope error"];
+        fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
+            Line.scene(rng, noise)
+        }
+        fn validator(&self, noise: f64) -> Residual {
+            Line.validator(noise)
+        }
+        fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
+            Line.errors(x, truth)
+        }
+        fn correct(&self, errors: &[f64]) -> bool {
+            Line.correct(errors)
+        }
+    };
+}
+
 /// Weights for the line, trained here by the `train` command (a small network).
 fn trained_weights(dir: &std::path::Path) -> std::path::PathBuf {
     std::fs::create_dir_all(dir).unwrap();
@@ -139,24 +162,9 @@ struct Listed {
 }
 
 impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Listed {
-    type Tracked = Line3;
-    type Data = Line3;
-    type Validator = Residual;
+    like_line!();
     const NAME: &'static str = "listed";
     const ABOUT: &'static str = "a line through the origin with other starts and simulators";
-    const ERRORS: &'static [&'static str] = &["slope error"];
-    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
-        Line.scene(rng, noise)
-    }
-    fn validator(&self, noise: f64) -> Residual {
-        Line.validator(noise)
-    }
-    fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
-        Line.errors(x, truth)
-    }
-    fn correct(&self, errors: &[f64]) -> bool {
-        Line.correct(errors)
-    }
     fn other_starts(&self) -> Vec<OtherStart<1, 6>> {
         (0..self.starts).map(|_| Box::new(LeastSquares) as OtherStart<1, 6>).collect()
     }
@@ -240,25 +248,10 @@ static RESTARTED_FROM: Mutex<Vec<(usize, f64)>> = Mutex::new(Vec::new());
 struct Restarted<const R: usize>;
 
 impl<const R: usize> DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Restarted<R> {
-    type Tracked = Line3;
-    type Data = Line3;
-    type Validator = Residual;
+    like_line!();
     const NAME: &'static str = "restarted";
     const ABOUT: &'static str = "a line through the origin with restarts";
-    const ERRORS: &'static [&'static str] = &["slope error"];
     const RESTARTS: usize = R;
-    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
-        Line.scene(rng, noise)
-    }
-    fn validator(&self, noise: f64) -> Residual {
-        Line.validator(noise)
-    }
-    fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
-        Line.errors(x, truth)
-    }
-    fn correct(&self, errors: &[f64]) -> bool {
-        Line.correct(errors)
-    }
     fn restart(&self, _p: &SVector<f64, 6>, x: &SVector<f64, 1>, k: usize) -> Option<SVector<f64, 1>> {
         RESTARTED_FROM.lock().unwrap().push((k, x[0]));
         (k != 1).then(|| SVector::from([x[0] + (k + 1) as f64]))
@@ -322,24 +315,9 @@ fn restarts_start_from_the_learned_hypothesis_and_come_last() {
 struct OneStep;
 
 impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for OneStep {
-    type Tracked = Line3;
-    type Data = Line3;
-    type Validator = Residual;
+    like_line!();
     const NAME: &'static str = "one-step";
     const ABOUT: &'static str = "a line through the origin, paths of one step";
-    const ERRORS: &'static [&'static str] = &["slope error"];
-    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
-        Line.scene(rng, noise)
-    }
-    fn validator(&self, noise: f64) -> Residual {
-        Line.validator(noise)
-    }
-    fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
-        Line.errors(x, truth)
-    }
-    fn correct(&self, errors: &[f64]) -> bool {
-        Line.correct(errors)
-    }
     fn options(&self) -> simhc::pipeline::PipelineOptions {
         let mut o = simhc::pipeline::PipelineOptions::default();
         o.tracker.max_steps = 1;

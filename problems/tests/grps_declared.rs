@@ -8,10 +8,13 @@ use nalgebra::SVector;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use simhc::pipeline::Validator;
 use simhc::pipeline::{Method, Origin, OutputDecoding};
 use simhc::solver::{DeclaredProblem, Solver};
-use simhc_problems::grps::declared::{params_of, Grps8Problem, GrpsOutputs, GrpsSolvers, GrpsSolversError};
+use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
+use simhc_problems::grps::declared::{eight_rows, params_of, Grps8Problem, GrpsOutputs, GrpsSolvers, GrpsSolversError};
 use simhc_problems::grps::features::GrpsFrame;
+use simhc_problems::grps::scene::GrpsCorrespondence;
 use simhc_problems::grps::scene::GrpsSceneConfig;
 use simhc_problems::grps::unknowns_of;
 use simhc_problems::grps::{rows_of, Grps7, Grps8};
@@ -135,16 +138,55 @@ fn grps_solvers_dispatch_by_count() {
     bad[3].fp.y = f64::NAN;
     let err = solvers.solve(&bad).unwrap_err().to_string();
     assert!(err.contains("row 3") && err.contains("fp"), "{err}");
-    // Past the 8th correspondence: a NaN is named by its row and field, a zero bearing by its
-    // correspondence.
+    // Past the 8th correspondence too: a NaN is named by its row and field, a zero bearing by its
+    // row, with the same error as within the first 8.
     let mut bad = scene.correspondences.clone();
     bad[10].v.x = f64::INFINITY;
     let err = solvers.solve(&bad).unwrap_err().to_string();
     assert!(err.contains("row 10") && err.contains("field `v`"), "{err}");
-    let mut bad = scene.correspondences.clone();
-    bad[9].f = nalgebra::Vector3::zeros();
-    let err = solvers.solve(&bad).unwrap_err();
-    assert_eq!(err, GrpsSolversError::Degenerate(simhc_problems::grps::geometry::GrpsError::ZeroBearing { index: 9 }));
+    for (n, row) in [(12, 9), (8, 5)] {
+        let mut bad = scene.correspondences[..n].to_vec();
+        bad[row].f = nalgebra::Vector3::zeros();
+        match solvers.solve(&bad) {
+            Err(GrpsSolversError::Solve(SolveError::Input(FirstRowsError::Degenerate(DegenerateInput { row: Some(r), reason })))) => {
+                assert_eq!(r, row);
+                assert!(reason.contains("zero-length bearing"), "{reason}");
+            }
+            other => panic!("{n} correspondences, a zero bearing in row {row}: {other:?}"),
+        }
+    }
+}
+
+/// Data sorted by camera: the first 8 correspondences all come from one camera of each view
+/// (the scale unobservable from them alone: an input error), but all 40 do not, so the dispatch
+/// solves them, on 8 spread over the camera pairs ([`eight_rows`]).
+#[test]
+fn grps_solvers_solve_data_sorted_by_camera() {
+    let solvers = GrpsSolvers::new(0.0).expect("shipped weights");
+    let problem = Grps8Problem::new();
+    let seed = 41;
+    println!("seed {seed}");
+    let scene = GrpsSceneConfig { points: 40, ..GrpsSceneConfig::default() }.sample_seeded(seed).expect("valid config");
+    let truth = unknowns_of(&scene.rotation, &scene.translation, scene.scale);
+    let mut sorted = scene.correspondences.clone();
+    sorted.sort_by(|a, b| a.v.as_slice().partial_cmp(b.v.as_slice()).unwrap());
+    let err = solvers.solve(&sorted[..8]).unwrap_err().to_string();
+    assert!(err.contains("scale unobservable"), "the first 8 are not from one camera: {err}");
+    // The 8 rows come from at least 3 camera pairs, each pair at most once more than another.
+    let rows = eight_rows(&sorted).unwrap();
+    assert!(rows.windows(2).all(|w| w[0] < w[1]), "{rows:?}");
+    let mut pairs: Vec<(usize, usize)> = Vec::new();
+    for &i in &rows {
+        match pairs.iter_mut().find(|(f, _)| sorted[*f].v == sorted[i].v && sorted[*f].vp == sorted[i].vp) {
+            Some((_, n)) => *n += 1,
+            None => pairs.push((i, 1)),
+        }
+    }
+    let (most, least) = (pairs.iter().map(|p| p.1).max().unwrap(), pairs.iter().map(|p| p.1).min().unwrap());
+    assert!(pairs.len() >= 3 && most - least <= 1, "rows {rows:?} by pair: {pairs:?}");
+    let solution = solvers.solve(&sorted).expect("solved");
+    assert!(problem.correct(&problem.errors(&solution.x, &truth)), "{:?}", problem.errors(&solution.x, &truth));
+    assert_eq!(eight_rows(&sorted[..7]), None);
 }
 
 /// More than 8 correspondences: solved on the first 8, refined on all, validated on all. With
@@ -164,10 +206,20 @@ fn grps_solvers_refine_on_all_correspondences() {
         let Ok(all) = noisy.solve(&scene.correspondences) else { continue };
         solved += 1;
         assert!(all.check.max_angle.is_finite() && all.check.behind == 0, "{:?}", all.check);
-        let eight = noisy.solve(&scene.correspondences[..8]).map(|s| problem.errors(&s.x, &truth)[0]);
         let e_all = problem.errors(&all.x, &truth);
         assert!(e_all[0] < 2.0, "seed {}: E_R {} deg on 30 correspondences", seed + k, e_all[0]);
-        better += usize::from(eight.is_ok_and(|e8| e_all[0] <= e8));
+        // Against the pose of the first 8 alone, checked on all 30: the returned pose validates
+        // no worse on them, and is closer to the truth in most scenes.
+        if let Ok(eight) = noisy.solve(&scene.correspondences[..8]) {
+            let validator = noisy.eight.validator();
+            let eight_on_all = Validator::<[GrpsCorrespondence], 8>::check(validator, &scene.correspondences, &eight.x);
+            assert!(
+                !Validator::<[GrpsCorrespondence], 8>::better(validator, &eight_on_all, &all.check),
+                "{eight_on_all:?} {:?}",
+                all.check
+            );
+            better += usize::from(e_all[0] <= problem.errors(&eight.x, &truth)[0]);
+        }
     }
     assert!(solved >= 8, "{solved} of 10 noisy 30-correspondence scenes");
     assert!(better >= solved / 2, "the refinement on all 30 improved E_R on {better} of {solved}");
@@ -254,7 +306,8 @@ fn a_restart_turns_the_prediction_and_resolves_translation_and_scale() {
 
 /// Degenerate geometry is a typed input error naming what is wrong, never a pose: a central
 /// view (all rays of one view from one origin: the scale is unobservable, and every scale fits
-/// the data) and a zero bearing, through the library solver and the dispatch.
+/// the data) through the library solver and the dispatch, and a zero bearing through the
+/// library solver (the dispatch's: `grps_solvers_dispatch_by_count`).
 #[test]
 fn degenerate_geometry_is_an_input_error() {
     let solver = Solver::new(Grps8Problem::new()).expect("shipped weights");

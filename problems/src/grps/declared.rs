@@ -21,15 +21,16 @@
 //! - the solve settings ([`DeclaredProblem::options`]) are [`GrpsSolver`]'s: end points
 //!   polished by Gauss-Newton, 4 more attempts after a plausible (noisy) one.
 //!
-//! [`GrpsSolvers`] takes any number of correspondences from 7: more than 8 are solved on the
-//! first 8, refined on all and validated on all, as [`GrpsSolver`] does. BENCHMARKS.md
+//! [`GrpsSolvers`] takes any number of correspondences from 7: more than 8 are checked as a
+//! whole, solved on 8 spread over the camera pairs ([`eight_rows`]; [`GrpsSolver`] takes the
+//! first 8, which fails on data sorted by camera), refined on all and validated on all. BENCHMARKS.md
 //! (2026-12-04, evening) compares the two assemblies on the same trials: the same success and
 //! fallbacks, means within 1.16x.
 //!
 //! [`Solver`]: simhc::solver::Solver
 
 use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
-use super::geometry::{validate, GrpsError, ZERO_BEARING_NORM};
+use super::geometry::{validate, GrpsError};
 use super::refine::{angular_residual, refine_pose, translation_scale_for_rotation, LmOptions};
 use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
 use super::solver::{
@@ -47,8 +48,8 @@ use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::pipeline::path::gauss_newton;
 use simhc::pipeline::{Generic, InputRows, OutputDecoding, PipelineOptions, StartError, StartProvider, Validator, Verdict};
 use simhc::solver::{
-    rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, DegenerateInput, OtherSimulator, OtherStart, Refinement, Solution,
-    SolveError, Solver, SolverError,
+    rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, DegenerateInput, FirstRowsError, OtherSimulator, OtherStart, Refinement,
+    Solution, SolveError, Solver, SolverError,
 };
 use simhc::start_system::{MonodromyConfig, MonodromyReport, StartSystemError};
 use simhc::{MinNormSimulator, ProblemLayout};
@@ -214,9 +215,10 @@ type Prediction = Result<(Matrix3<f64>, Vector3<f64>, f64), String>;
 
 thread_local! {
     /// The data the shipped network last ran on in this thread, and its pose, for the plain and
-    /// the swapped views: the three [`PredictedStart`]s of a solve, each tried with three
-    /// methods, run the network twice instead of nine times. Every `PredictedStart` runs the
-    /// same shipped weights, so one cache serves them all.
+    /// the swapped views: the three [`PredictedStart`]s of a solve, each tried with Gauss-Newton
+    /// first and with paths later, run the network twice in all instead of once per start and
+    /// method. Every `PredictedStart` runs the same shipped weights, so one cache serves them
+    /// all.
     static PREDICTED: std::cell::RefCell<[(Vec<f64>, Prediction); 2]> =
         const { std::cell::RefCell::new([(Vec::new(), Err(String::new())), (Vec::new(), Err(String::new()))]) };
 }
@@ -422,8 +424,8 @@ grps_problem!(
 grps_problem!(8, Grps8, 9, 96, "grps8", "Generalized relative pose and scale, 8 correspondences, through the generic solver assembly");
 
 /// The generic solvers of GRPS on 7 and on 8 correspondences behind one call that picks the
-/// instance by the number of correspondences; more than 8 are solved on the first 8, refined
-/// on all of them and validated again on all. Both return the runtime's own
+/// instance by the number of correspondences; more than 8 are solved on 8 spread over the
+/// camera pairs ([`eight_rows`]), refined on all of them and validated again on all. Both return the runtime's own
 /// [`simhc::solver::Solution`] and [`simhc::solver::SolveError`] (the same types for both
 /// instances, nothing translated).
 pub struct GrpsSolvers {
@@ -439,10 +441,6 @@ pub enum GrpsSolversError {
     /// Fewer than 7 correspondences.
     #[error("{0} correspondences: GRPS needs at least 7")]
     Count(usize),
-    /// More than 8 correspondences, and those past the 8th are degenerate (a zero bearing; the
-    /// first 8 are the solve's own input, checked by it).
-    #[error("correspondences past the 8th: {0}")]
-    Degenerate(GrpsError),
     /// The solve's own error ([`simhc::solver::SolveError`]: input, flagged, no end point).
     #[error(transparent)]
     Solve(#[from] SolveError<Validation, 8>),
@@ -457,45 +455,81 @@ impl GrpsSolvers {
         })
     }
 
-    /// Solves 7 or 8 correspondences with the instance of that count; more: the first 8, then
-    /// the pose refined on all ([`refine_pose`], Levenberg-Marquardt on the angular residuals)
-    /// and validated on all (the refined pose, or the unrefined one where that validates
-    /// better). A NaN names its correspondence and field.
+    /// Solves 7 or 8 correspondences with the instance of that count. More: all are checked
+    /// (a NaN names its row and field, degenerate geometry is an input error as for 8), 8 of
+    /// them spread over the camera pairs are solved ([`eight_rows`]), and the pose is refined on all ([`refine_pose`],
+    /// Levenberg-Marquardt on the angular residuals) and validated on all: the refined pose, or
+    /// the unrefined one where that one passes and the refined does not, or validates better.
     pub fn solve(&self, corrs: &[GrpsCorrespondence]) -> Result<Solution<Validation, 8>, GrpsSolversError> {
         if let Some(p) = params_of::<84>(corrs) {
             return Ok(self.seven.solve(&p)?);
         }
-        let Some(first) = corrs.get(..8) else { return Err(GrpsSolversError::Count(corrs.len())) };
-        if corrs.len() > 8 {
-            // The first 8 rows are checked by the solve; a NaN past them is named here, in the
-            // same terms (row and field of the declared layout, counted over all rows).
-            if let Some(index) = row_numbers(corrs).position(|v| !v.is_finite()) {
-                let layout = Layout { rows: corrs.len(), ..Grps8::LAYOUT };
-                return Err(SolveError::Input(NonFiniteParameter::locate(&layout, index).into()).into());
-            }
-            if let Some(index) = (8..corrs.len()).find(|&i| corrs[i].f.norm().min(corrs[i].fp.norm()) <= ZERO_BEARING_NORM) {
-                return Err(GrpsSolversError::Degenerate(GrpsError::ZeroBearing { index }));
-            }
+        if let Some(p) = params_of::<96>(corrs) {
+            return Ok(self.eight.solve(&p)?);
         }
-        let p = params_of::<96>(first).expect("8 correspondences");
-        let solution = self.eight.solve(&p)?;
-        if corrs.len() == 8 {
-            return Ok(solution);
+        if corrs.len() < 7 {
+            return Err(GrpsSolversError::Count(corrs.len()));
         }
+        let input = |e: FirstRowsError| GrpsSolversError::Solve(SolveError::Input(e));
+        if let Some(index) = row_numbers(corrs).position(|v| !v.is_finite()) {
+            let layout = Layout { rows: corrs.len(), ..Grps8::LAYOUT };
+            return Err(input(NonFiniteParameter::locate(&layout, index).into()));
+        }
+        validate(corrs).map_err(|e| input(degenerate(e).into()))?;
+        let eight = eight_rows(corrs).expect("more than 8 correspondences").map(|i| corrs[i]);
+        let solution = self.eight.solve(&params_of::<96>(&eight).expect("8 correspondences"))?;
         let validator = self.eight.validator();
-        let unrefined = (solution.x, validator.check(corrs, &solution.x));
+        let on_all = |x: SVector<f64, 8>| (x, Validator::<[GrpsCorrespondence], 8>::check(validator, corrs, &x));
+        let rejected = |c: &Validation| matches!(Validator::<[GrpsCorrespondence], 8>::verdict(validator, c), Verdict::Reject);
+        let unrefined = on_all(solution.x);
         let refined = GrpsPose::from_unknowns(&solution.x).map(|pose| {
             let r = refine_pose(&pose.rotation, &pose.translation, pose.scale, corrs, &LmOptions::default());
-            let x = unknowns_of(&r.rotation, &r.translation, r.scale);
-            (x, validator.check(corrs, &x))
+            on_all(unknowns_of(&r.rotation, &r.translation, r.scale))
         });
         let (x, check) = match refined {
-            Some(r) if !Validator::<[GrpsCorrespondence], 8>::better(validator, &unrefined.1, &r.1) => r,
-            _ => unrefined,
+            Some(r) => match (rejected(&unrefined.1), rejected(&r.1)) {
+                (false, true) => unrefined,
+                (true, false) => r,
+                _ if Validator::<[GrpsCorrespondence], 8>::better(validator, &unrefined.1, &r.1) => unrefined,
+                _ => r,
+            },
+            None => unrefined,
         };
-        match Validator::<[GrpsCorrespondence], 8>::verdict(validator, &check) {
-            Verdict::Reject => Err(SolveError::NotValidated { best: x, check, attempts: solution.attempts }.into()),
-            Verdict::Accept | Verdict::Plausible => Ok(Solution { x, check, ..solution }),
+        if rejected(&check) {
+            return Err(SolveError::NotValidated { best: x, check, attempts: solution.attempts }.into());
         }
+        Ok(Solution { x, check, ..solution })
     }
+}
+
+/// The 8 of `corrs` that [`GrpsSolvers::solve`] solves on, spread over the camera pairs (rows
+/// with the same ray origins `v` and `vp`): the first row of every pair in order of appearance,
+/// then the second of every pair, and so on; the first 8 of that order, ascending. Why: rows of
+/// one camera pair fix only that pair's relative pose up to scale, so 8 rows from few pairs
+/// (data sorted by camera) leave the pose undetermined although all the rows fix it. `None`
+/// for fewer than 8.
+pub fn eight_rows(corrs: &[GrpsCorrespondence]) -> Option<[usize; 8]> {
+    if corrs.len() < 8 {
+        return None;
+    }
+    let differs = |a: Vector3<f64>, b: Vector3<f64>| (a - b).norm() > 1e-12 * (1.0 + a.norm().max(b.norm()));
+    let same_pair = |a: &GrpsCorrespondence, b: &GrpsCorrespondence| !differs(a.v, b.v) && !differs(a.vp, b.vp);
+    // The first row of each pair seen so far, and each row's rank within its pair.
+    let mut firsts: Vec<usize> = Vec::new();
+    let mut counts: Vec<usize> = Vec::new();
+    let mut rank = Vec::with_capacity(corrs.len());
+    for (i, c) in corrs.iter().enumerate() {
+        let pair = firsts.iter().position(|&f| same_pair(&corrs[f], c)).unwrap_or_else(|| {
+            firsts.push(i);
+            counts.push(0);
+            firsts.len() - 1
+        });
+        rank.push(counts[pair]);
+        counts[pair] += 1;
+    }
+    let mut order: Vec<usize> = (0..corrs.len()).collect();
+    order.sort_by_key(|&i| (rank[i], i));
+    let mut rows: [usize; 8] = std::array::from_fn(|k| order[k]);
+    rows.sort_unstable();
+    Some(rows)
 }

@@ -359,7 +359,7 @@ where
             row("Pred + Sim HC (one path)", simulator_hc, false, &trials),
         ];
         if hypotheses > 1 {
-            let name = format!("Pred, {hypotheses} hypotheses: GN, then Sim HC, no fallback");
+            let name = format!("Shipped attempts ({hypotheses} hypotheses), no fallback");
             rows.push(row(&name, solver.schedule(), false, &trials));
         }
         let shipped_name = match (has_fallback, hypotheses > 1) {

@@ -195,15 +195,16 @@ fn the_other_starts_and_simulators_run_after_the_learned_start() {
         a(3, Method::OtherSimulatorHc(0)),
     ];
     assert_eq!(schedule, expect);
-    let tail = [a(0, Method::OtherSimulatorHc(0)), a(3, Method::GaussNewton), a(3, Method::SimulatorHc), a(3, Method::OtherSimulatorHc(0))];
+    let listed =
+        [a(0, Method::OtherSimulatorHc(0)), a(3, Method::GaussNewton), a(3, Method::SimulatorHc), a(3, Method::OtherSimulatorHc(0))];
 
     let seed = 11;
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for _ in 0..10 {
         let (p, truth) = Listed { starts: 1, simulators: 1 }.scene(&mut rng, 0.0);
-        // Each attempt of the tail alone: it runs the listed start or simulator and solves.
-        for attempt in tail {
+        // Each attempt with the listed start or simulator alone: it runs them and solves.
+        for attempt in listed {
             let (starts, simulations) = (OTHER_STARTS.load(Ordering::SeqCst), OTHER_SIMULATIONS.load(Ordering::SeqCst));
             let solved = solver.run_pipeline(&p, &[attempt], false, None).expect("the listed attempt solves the line");
             assert!((solved.x[0] - truth[0]).abs() < 1e-9, "{attempt:?}: slope {} for {}", solved.x[0], truth[0]);

@@ -11,8 +11,10 @@
 //! }
 //! ```
 //!
-//! A solve runs the shipped schedule ([`shipped_schedule`]) in the problem's canonical frame,
-//! then the all-roots fallback when the problem has one; only an end point that the problem's
+//! A solve checks the data ([`DeclaredProblem::check_input`]), then runs its schedule in the
+//! problem's canonical frame ([`Solver::schedule`]: the shipped attempts on the learned start's
+//! hypotheses, the problem's other starts and simulators, its restarts), then the all-roots
+//! fallback when the problem has one; only an end point that the problem's
 //! validator accepts on all the data comes back as `Ok`. A solve makes no heap allocation
 //! when it ends validated and the problem's own hooks do not allocate (a
 //! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`).
@@ -312,8 +314,9 @@ where
 
     /// The pipeline's own result of a solve with these attempts over the providers of
     /// [`super::hypotheses::provider`], `extra` in slot 2 (the bench's random start), the
-    /// problem's other starts at [`super::hypotheses::other_provider`], with or without the
-    /// all-roots fallback: what the bench tallies.
+    /// problem's other starts at [`super::hypotheses::other_provider`] and its restarts at
+    /// [`super::restarts::restart_provider`], with or without the all-roots fallback: what the
+    /// bench tallies.
     pub fn run_pipeline(
         &self,
         p: &SVector<f64, ND>,

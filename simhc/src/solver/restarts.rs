@@ -41,8 +41,8 @@ pub const RESTART_AXES: [[f64; 3]; 13] = [
 ];
 
 /// The `k`-th rotation of a restart schedule over `angles_deg`: by `angles_deg[k / 13]` degrees
-/// about [`RESTART_AXES`]`[k % 13]`, the sign alternating with `k` (so both senses about the
-/// axes are tried); `None` past the end (`k >= 13 * angles_deg.len()`).
+/// about [`RESTART_AXES`]`[k % 13]`, the sign alternating with `k` (13 is odd, so each axis
+/// changes sense from one angle to the next); `None` past the end (`k >= 13 * angles_deg.len()`).
 pub fn restart_rotation(k: usize, angles_deg: &[f64]) -> Option<Rotation3<f64>> {
     let angle = angles_deg.get(k / RESTART_AXES.len())?;
     let axis = Unit::new_normalize(Vector3::from(RESTART_AXES[k % RESTART_AXES.len()]));
@@ -148,8 +148,10 @@ mod tests {
 
     #[test]
     fn restarts_follow_the_other_starts() {
-        assert_eq!(restart_provider(1, 0, 0), other_provider(1, 0));
-        assert_eq!(restart_provider(3, 2, 4), other_provider(3, 2) + 4);
+        // One hypothesis: providers 0 and 1, slot 2 free, so the first restart is at 3.
+        assert_eq!(restart_provider(1, 0, 0), 3);
+        // Three hypotheses (providers 0, 1, 3, 4, 5, 6), two other starts (7, 8): restart 4 at 13.
+        assert_eq!(restart_provider(3, 2, 4), 13);
         let a: Vec<Attempt> = restart_attempts(1, 3, 2).collect();
         assert_eq!(a, [6, 7].map(|provider| Attempt { provider, method: Method::GaussNewton }));
     }

@@ -157,3 +157,23 @@ fn shipped_regressor_loads_and_predicts_better_than_chance() {
     // A uniformly random rotation has a median error of about 126 deg.
     assert!(median < 30.0, "median {median}");
 }
+
+/// Data sorted by camera (the first 8 correspondences from one camera pair, which fixes only
+/// that pair's relative pose up to scale): the solver picks 8 spread over the pairs and
+/// recovers the pose from all 40.
+#[test]
+fn data_sorted_by_camera_is_solved() {
+    let solver = GrpsSolver::new().expect("shipped weights");
+    let mut solved = 0;
+    for seed in 41..46 {
+        println!("seed {seed}");
+        let scene = GrpsSceneConfig { points: 40, ..GrpsSceneConfig::default() }.sample_seeded(seed).expect("valid config");
+        let mut sorted = scene.clone();
+        sorted.correspondences.sort_by(|a, b| a.v.as_slice().partial_cmp(b.v.as_slice()).unwrap());
+        if let Ok(pose) = solver.solve(&sorted.correspondences) {
+            assert!(success(&pose, &scene), "seed {seed}: a wrong pose");
+            solved += 1;
+        }
+    }
+    assert!(solved >= 4, "{solved} of 5 sorted scenes");
+}

@@ -36,7 +36,7 @@ use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
 use super::solver::{
     pipeline_options, GrpsPose, GrpsSolver, GrpsSolverOptions, GrpsValidator, Validation, GRPS_RESTART_ANGLES_DEG, GRPS_WEIGHTS,
 };
-use super::{correspondence_of_row, correspondences_of, row_numbers, unknowns_of, Grps7, Grps8, ROW_LEN};
+use super::{correspondence_of_row, correspondences_of, eight_rows, row_numbers, unknowns_of, Grps7, Grps8, ROW_LEN};
 use crate::metrics::{random_unit_quaternion, rotation_error_deg, rotation_from_quat, scale_error_pct, translation_error_pct};
 use crate::start_systems::{run_monodromy_grps7, solve_grps7};
 use nalgebra::{Matrix3, SVector, Vector3};
@@ -500,36 +500,4 @@ impl GrpsSolvers {
         }
         Ok(Solution { x, check, ..solution })
     }
-}
-
-/// The 8 of `corrs` that [`GrpsSolvers::solve`] solves on, spread over the camera pairs (rows
-/// with the same ray origins `v` and `vp`): the first row of every pair in order of appearance,
-/// then the second of every pair, and so on; the first 8 of that order, ascending. Why: rows of
-/// one camera pair fix only that pair's relative pose up to scale, so 8 rows from few pairs
-/// (data sorted by camera) leave the pose undetermined although all the rows fix it. `None`
-/// for fewer than 8.
-pub fn eight_rows(corrs: &[GrpsCorrespondence]) -> Option<[usize; 8]> {
-    if corrs.len() < 8 {
-        return None;
-    }
-    let differs = |a: Vector3<f64>, b: Vector3<f64>| (a - b).norm() > 1e-12 * (1.0 + a.norm().max(b.norm()));
-    let same_pair = |a: &GrpsCorrespondence, b: &GrpsCorrespondence| !differs(a.v, b.v) && !differs(a.vp, b.vp);
-    // The first row of each pair seen so far, and each row's rank within its pair.
-    let mut firsts: Vec<usize> = Vec::new();
-    let mut counts: Vec<usize> = Vec::new();
-    let mut rank = Vec::with_capacity(corrs.len());
-    for (i, c) in corrs.iter().enumerate() {
-        let pair = firsts.iter().position(|&f| same_pair(&corrs[f], c)).unwrap_or_else(|| {
-            firsts.push(i);
-            counts.push(0);
-            firsts.len() - 1
-        });
-        rank.push(counts[pair]);
-        counts[pair] += 1;
-    }
-    let mut order: Vec<usize> = (0..corrs.len()).collect();
-    order.sort_by_key(|&i| (rank[i], i));
-    let mut rows: [usize; 8] = std::array::from_fn(|k| order[k]);
-    rows.sort_unstable();
-    Some(rows)
 }

@@ -54,6 +54,48 @@ pub fn rows_of<const N: usize>(corrs: &[GrpsCorrespondence]) -> Option<[Row; N]>
     Some(rows)
 }
 
+/// The 8 of `corrs` that the solvers' systems are built from when there are more
+/// ([`solver::GrpsSolver`], [`declared::GrpsSolvers`]), spread over the camera pairs (rows
+/// with the same ray origins `v` and `vp`): the first row of every pair in order of appearance,
+/// then the second of every pair, and so on; the first 8 of that order, ascending. Why: rows of
+/// one camera pair fix only that pair's relative pose up to scale, so 8 rows from few pairs
+/// (data sorted by camera) leave the pose undetermined although all the rows fix it. `None`
+/// for fewer than 8.
+pub fn eight_rows(corrs: &[GrpsCorrespondence]) -> Option<[usize; 8]> {
+    if corrs.len() < 8 {
+        return None;
+    }
+    let differs = |a: Vector3<f64>, b: Vector3<f64>| (a - b).norm() > 1e-12 * (1.0 + a.norm().max(b.norm()));
+    let same_pair = |a: &GrpsCorrespondence, b: &GrpsCorrespondence| !differs(a.v, b.v) && !differs(a.vp, b.vp);
+    // The first row of each pair seen so far, and each row's rank within its pair.
+    let mut firsts: Vec<usize> = Vec::new();
+    let mut counts: Vec<usize> = Vec::new();
+    let mut rank = Vec::with_capacity(corrs.len());
+    for (i, c) in corrs.iter().enumerate() {
+        let pair = firsts.iter().position(|&f| same_pair(&corrs[f], c)).unwrap_or_else(|| {
+            firsts.push(i);
+            counts.push(0);
+            firsts.len() - 1
+        });
+        rank.push(counts[pair]);
+        counts[pair] += 1;
+    }
+    let mut order: Vec<usize> = (0..corrs.len()).collect();
+    order.sort_by_key(|&i| (rank[i], i));
+    let mut rows: [usize; 8] = std::array::from_fn(|k| order[k]);
+    rows.sort_unstable();
+    Some(rows)
+}
+
+/// `corrs` with the rows of [`eight_rows`] first (in their order), then the others (in theirs):
+/// the order in which a solver builds its system from the first 8; `corrs` itself for 8 or
+/// fewer.
+pub fn spread_first(corrs: &[GrpsCorrespondence]) -> std::borrow::Cow<'_, [GrpsCorrespondence]> {
+    let Some(rows) = eight_rows(corrs).filter(|_| corrs.len() > 8) else { return std::borrow::Cow::Borrowed(corrs) };
+    let rest = (0..corrs.len()).filter(|i| !rows.contains(i));
+    std::borrow::Cow::Owned(rows.into_iter().chain(rest).map(|i| corrs[i]).collect())
+}
+
 /// The solver's unknown vector `[q, t, s]` of a pose (quaternion with `q0 >= 0`).
 pub fn unknowns_of(rotation: &Matrix3<f64>, translation: &Vector3<f64>, scale: f64) -> SVector<f64, 8> {
     let q = crate::metrics::quat_from_rotation(rotation);

@@ -48,8 +48,9 @@
 //!    system, ~0.1 s), validated on all correspondences. On the benchmark this runs for ~2 %
 //!    of noise-free 8-point problems (regressor far off or an ill-conditioned instance), so
 //!    it moves the mean time, not the median.
-//! 6. With more than 8 correspondences the system is built from the first 8; the accepted pose
-//!    is then refined on all of them ([`super::refine::refine_pose`]).
+//! 6. With more than 8 correspondences the system is built from 8 spread over the camera pairs
+//!    ([`super::eight_rows`]: 8 of one pair fix only its relative pose up to scale); the
+//!    accepted pose is then refined on all of them ([`super::refine::refine_pose`]).
 //!
 //! If nothing validates, [`GrpsSolveError::NotValidated`] carries the best end point (fewest
 //! cheirality violations, then smallest residual): a flagged result, never a silent one. All
@@ -59,7 +60,7 @@ use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_W
 use super::geometry::{triangulate_depths, validate, GrpsError};
 use super::refine::{angular_residual, refine_pose, rotation_residual, translation_scale_for_rotation, LmOptions};
 use super::scene::GrpsCorrespondence;
-use super::{Grps7, Grps8, Row};
+use super::{spread_first, Grps7, Grps8, Row};
 use crate::metrics::rotation_from_quat;
 use nalgebra::{Matrix3, SVector, Vector3};
 use simhc::pipeline::{
@@ -555,6 +556,8 @@ impl GrpsSolver {
     /// depend on them. The pose is mapped back, and validated again on the user's data.
     pub fn solve_report(&self, corrs: &[GrpsCorrespondence]) -> Result<GrpsSolveReport, GrpsSolveError> {
         validate(corrs)?;
+        // The system is built from the first 8: these spread over the camera pairs.
+        let corrs = &*spread_first(corrs);
         let t0 = Instant::now();
         let frame = frame_of(corrs)?;
         let canonical = frame.canonical(corrs);
@@ -572,6 +575,7 @@ impl GrpsSolver {
         if !finite {
             return Err(GrpsSolveError::Input(GrpsError::NonFinite { index: usize::MAX }));
         }
+        let corrs = &*spread_first(corrs);
         let mut times = StageTimes::default();
         let frame = frame_of(corrs)?;
         let (rotation, translation, scale) = frame.to_canonical(&start.rotation, &start.translation, start.scale);

@@ -22,10 +22,10 @@
 //!   polished by Gauss-Newton, 4 more attempts after a plausible (noisy) one.
 //!
 //! [`GrpsSolvers`] takes any number of correspondences from 7: more than 8 are checked as a
-//! whole, solved on 8 spread over the camera pairs ([`eight_rows`]; [`GrpsSolver`] takes the
-//! first 8, which fails on data sorted by camera), refined on all and validated on all. BENCHMARKS.md
-//! (2026-12-04, evening) compares the two assemblies on the same trials: the same success and
-//! fallbacks, means within 1.16x.
+//! whole, solved on 8 spread over the camera pairs ([`super::spread_first`], as in
+//! [`GrpsSolver`]), refined on all and validated on all. BENCHMARKS.md (2026-12-04, evening)
+//! compares the two assemblies on the same trials: the same success and fallbacks, means within
+//! 1.16x.
 //!
 //! [`Solver`]: simhc::solver::Solver
 
@@ -36,7 +36,7 @@ use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
 use super::solver::{
     pipeline_options, GrpsPose, GrpsSolver, GrpsSolverOptions, GrpsValidator, Validation, GRPS_RESTART_ANGLES_DEG, GRPS_WEIGHTS,
 };
-use super::{correspondence_of_row, correspondences_of, eight_rows, row_numbers, unknowns_of, Grps7, Grps8, ROW_LEN};
+use super::{correspondence_of_row, correspondences_of, row_numbers, spread_first, unknowns_of, Grps7, Grps8, ROW_LEN};
 use crate::metrics::{random_unit_quaternion, rotation_error_deg, rotation_from_quat, scale_error_pct, translation_error_pct};
 use crate::start_systems::{run_monodromy_grps7, solve_grps7};
 use nalgebra::{Matrix3, SVector, Vector3};
@@ -425,9 +425,9 @@ grps_problem!(8, Grps8, 9, 96, "grps8", "Generalized relative pose and scale, 8 
 
 /// The generic solvers of GRPS on 7 and on 8 correspondences behind one call that picks the
 /// instance by the number of correspondences; more than 8 are solved on 8 spread over the
-/// camera pairs ([`eight_rows`]), refined on all of them and validated again on all. Both return the runtime's own
-/// [`simhc::solver::Solution`] and [`simhc::solver::SolveError`] (the same types for both
-/// instances, nothing translated).
+/// camera pairs ([`super::spread_first`]), refined on all of them and validated again on all.
+/// Both return the runtime's own [`simhc::solver::Solution`] and [`simhc::solver::SolveError`]
+/// (the same types for both instances, nothing translated).
 pub struct GrpsSolvers {
     /// The solver on 7 correspondences.
     pub seven: Solver<Grps7Problem, 8, 8, 84, { Grps7::NC }, 84>,
@@ -457,8 +457,9 @@ impl GrpsSolvers {
 
     /// Solves 7 or 8 correspondences with the instance of that count. More: all are checked
     /// (a NaN names its row and field, degenerate geometry is an input error as for 8), 8 of
-    /// them spread over the camera pairs are solved ([`eight_rows`]), and the pose is refined on all ([`refine_pose`],
-    /// Levenberg-Marquardt on the angular residuals) and validated on all: the refined pose, or
+    /// them spread over the camera pairs are solved ([`super::spread_first`]), and the pose is
+    /// refined on all ([`refine_pose`], Levenberg-Marquardt on the angular residuals) and
+    /// validated on all: the refined pose, or
     /// the unrefined one where that one passes and the refined does not, or validates better.
     pub fn solve(&self, corrs: &[GrpsCorrespondence]) -> Result<Solution<Validation, 8>, GrpsSolversError> {
         if let Some(p) = params_of::<84>(corrs) {
@@ -476,8 +477,9 @@ impl GrpsSolvers {
             return Err(input(NonFiniteParameter::locate(&layout, index).into()));
         }
         validate(corrs).map_err(|e| input(degenerate(e).into()))?;
-        let eight = eight_rows(corrs).expect("more than 8 correspondences").map(|i| corrs[i]);
-        let solution = self.eight.solve(&params_of::<96>(&eight).expect("8 correspondences"))?;
+        // The same 8 as `GrpsSolver` builds its system from: the first 8 of `spread_first`.
+        let spread = spread_first(corrs);
+        let solution = self.eight.solve(&params_of::<96>(&spread[..8]).expect("more than 8 correspondences"))?;
         let validator = self.eight.validator();
         let on_all = |x: SVector<f64, 8>| (x, Validator::<[GrpsCorrespondence], 8>::check(validator, corrs, &x));
         let rejected = |c: &Validation| matches!(Validator::<[GrpsCorrespondence], 8>::verdict(validator, c), Verdict::Reject);

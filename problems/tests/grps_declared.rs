@@ -10,7 +10,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::Validator;
 use simhc::pipeline::{Method, Origin, OutputDecoding};
-use simhc::solver::{DeclaredProblem, Solver};
+use simhc::solver::{DeclaredProblem, LearnedHypotheses, Solver};
 use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
 use simhc_problems::grps::declared::{params_of, Grps8Problem, GrpsOutputs, GrpsSolvers, GrpsSolversError};
 use simhc_problems::grps::eight_rows;

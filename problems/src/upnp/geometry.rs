@@ -174,6 +174,14 @@ impl UpnpSystem {
     }
 }
 
+/// Checks that the rays determine a translation (`sum_i V_i` regular, as [`upnp_system`]
+/// needs) without building the cost matrix.
+pub fn check_rays(corrs: &[UpnpCorrespondence]) -> Result<(), UpnpError> {
+    validate(corrs)?;
+    let h = corrs.iter().fold(Matrix3::<f64>::zeros(), |h, c| h + projector(&c.f));
+    inverse_checked(&h).map(|_| ())
+}
+
 /// Builds `M` and the translation map from the correspondences (module docs).
 pub fn upnp_system(corrs: &[UpnpCorrespondence]) -> Result<UpnpSystem, UpnpError> {
     validate(corrs)?;

@@ -1,6 +1,7 @@
 //! Generalized absolute pose via UPnP: declaration, scene sampler, cost matrix, simulator.
 pub mod features;
 pub mod geometry;
+pub mod instance;
 pub mod linear;
 pub mod ransac;
 pub mod refine;

@@ -255,14 +255,7 @@ impl UpnpSolver {
 
     /// The regressor on the canonical rows ([`super::features`]), decoded to the input frames.
     fn predict_unchecked(&self, corrs: &[UpnpCorrespondence]) -> Result<[f64; 4], SolveError> {
-        let frame = UpnpFrame::new(corrs).ok_or(UpnpError::CollinearPoints)?;
-        let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * corrs.len()];
-        if !frame.rows(corrs, &mut rows) {
-            return Err(RegressorError::NonFinite.into());
-        }
-        let mut out = [0.0f64; UPNP_OUTPUTS];
-        self.network.forward(&rows, &mut out)?;
-        Ok(frame.decode(&out).ok_or(RegressorError::NonFinite)?)
+        predict(&self.network, corrs)
     }
 
     /// The start quaternion of the linear relaxation.
@@ -452,9 +445,22 @@ impl Fallback<UpnpInstance<'_>, 4, 66> for GlobalMinimum {
     }
 }
 
+/// The regressor's unit quaternion for the correspondences: `network` on their canonical rows
+/// ([`super::features`]), decoded to the input frames. The correspondences are not checked.
+pub fn predict(network: &FoldedNetwork, corrs: &[UpnpCorrespondence]) -> Result<[f64; 4], SolveError> {
+    let frame = UpnpFrame::new(corrs).ok_or(UpnpError::CollinearPoints)?;
+    let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * corrs.len()];
+    if !frame.rows(corrs, &mut rows) {
+        return Err(RegressorError::NonFinite.into());
+    }
+    let mut out = [0.0f64; UPNP_OUTPUTS];
+    network.forward(&rows, &mut out)?;
+    Ok(frame.decode(&out).ok_or(RegressorError::NonFinite)?)
+}
+
 /// The pose of the smallest cost among all real critical points (`None` when the all-roots
 /// solver finds no real one).
-fn global_minimum(target: &UpnpSystem) -> Option<UpnpPose> {
+pub fn global_minimum(target: &UpnpSystem) -> Option<UpnpPose> {
     let result = solve_upnp(&params_of(&target.m), &AllRootsOptions::default());
     result
         .real
@@ -466,10 +472,18 @@ fn global_minimum(target: &UpnpSystem) -> Option<UpnpPose> {
 /// The paper's geometric simulator: reproject the points under `(R(q0), t*(q0))` and rebuild
 /// `M`; `q0` then solves the start system exactly (its simulated cost is zero).
 pub fn simulate(target: &UpnpSystem, corrs: &[UpnpCorrespondence], q0: [f64; 4]) -> Result<nalgebra::SMatrix<f64, 11, 11>, UpnpError> {
-    let r0 = rotation_from_quat(q0);
-    let t0 = target.translation(q0);
+    reprojected_cost(&rotation_from_quat(q0), &target.translation(q0), corrs)
+}
+
+/// The cost matrix of the correspondences with their bearings reprojected under `(r, t)`,
+/// which `(r, t)` then solves exactly.
+pub fn reprojected_cost(
+    r: &Matrix3<f64>,
+    t: &Vector3<f64>,
+    corrs: &[UpnpCorrespondence],
+) -> Result<nalgebra::SMatrix<f64, 11, 11>, UpnpError> {
     let mut simulated = corrs.to_vec();
-    reproject_in_place(&r0, &t0, &mut simulated)?;
+    reproject_in_place(r, t, &mut simulated)?;
     Ok(upnp_system(&simulated)?.m)
 }
 

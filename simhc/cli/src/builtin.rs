@@ -283,7 +283,7 @@ impl Registration for Upnp {
                 println!("flag: returned flagged as not validated; wrong: returned unflagged yet over the threshold");
                 let [first, second, fallback] = report.shipped_attempts;
                 println!("shipped solver, validated at: first start {first}, second start {second}, all-roots fallback {fallback}");
-                for row in [upnp::PRED_HC_ROW, upnp::SHIPPED_ROW] {
+                for row in [upnp::PRED_HC_ROW, upnp::SHIPPED_ROW, upnp::LIBRARY_ROW] {
                     if let Some(ratio) = stats::median_time_ratio(&report.rows, upnp::ALL_ROOTS_ROW, row) {
                         println!("median time, All-roots HC / {row}: {ratio:.1}x");
                     }

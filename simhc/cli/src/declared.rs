@@ -26,7 +26,7 @@ use simhc::layout::Layout;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
 use simhc::pipeline::{Attempt, Method, Origin, PipelineError};
 use simhc::solver::hypotheses::RankedStarts;
-use simhc::solver::{shipped_schedule, DeclaredProblem, RandomStart, SolveError, Solver};
+use simhc::solver::{shipped_schedule, DeclaredProblem, LearnedHypotheses, RandomStart, SolveError, Solver};
 use simhc::ProblemLayout;
 #[cfg(feature = "train")]
 use simhc_regressor::generic::train_learned_start_with;
@@ -324,7 +324,6 @@ where
                 .map_err(|e| format!("{}: {e}", path.display()))?;
         }
         let solver = self.solver(&a.weights, a.noise)?;
-        let ranked = RankedStarts::new(solver.learned_start(), &*self.problem);
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
         let has_refine = S::REFINES;
         let has_fallback = self.problem.all_roots().is_some_and(|r| r.has_start_system());
@@ -348,11 +347,14 @@ where
         };
         let one = shipped_schedule(S::REFINES);
         let (gauss_newton, simulator_hc) = one.split_at(one.len() - 1);
-        let hypotheses = ranked.count();
+        let hypotheses = solver.learned_start().hypotheses();
+        // One set of hypotheses per trial: a set keeps those of the datum it was first asked
+        // about.
+        let first = |p: &SVector<f64, ND>| RankedStarts::new(solver.learned_start()).start(p, 0).ok();
         let mut rows = vec![
             bench_estimate_row("Pred Initial", &trials, &score, |p| match self.problem.canonicalize(p) {
-                Some((pc, frame)) => ranked.start(&pc, 0).ok().map(|x| (frame.to_user)(&x)),
-                None => ranked.start(p, 0).ok(),
+                Some((pc, frame)) => first(&pc).map(|x| (frame.to_user)(&x)),
+                None => first(p),
             }),
             row(if has_refine { "Pred + Gauss-Newton (all rows)" } else { "Pred + Gauss-Newton" }, gauss_newton, false, &trials),
             row("Rand + Sim HC (one path)", &[Attempt { provider: rand, method: Method::SimulatorHc }], false, &trials),

@@ -5,9 +5,11 @@ use nalgebra::Matrix3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
+use simhc::solver::SolveError as LibraryError;
 use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, rotation_from_quat, translation_error_pct};
 use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
 use simhc_problems::upnp::geometry::{translation_from_rotation, upnp_system};
+use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::refine::{levenberg_marquardt, LmOptions};
 use simhc_problems::upnp::scene::{PointBox, UpnpCorrespondence, UpnpScene, UpnpSceneConfig};
 use simhc_problems::upnp::solver::{Method as UpnpMethod, SolveError, StartKind, UpnpSolveReport, UpnpSolver, UpnpSolverOptions};
@@ -90,6 +92,8 @@ pub const SHIPPED_ROW: &str = "simhc UPnP solver (shipped)";
 pub const PRED_HC_ROW: &str = "Pred Initial + Simulator HC";
 /// The all-roots row.
 pub const ALL_ROOTS_ROW: &str = "All-roots HC (1 thread)";
+/// The bench row of the runtime's library solver on UPnP ([`UpnpLibrarySolver`]).
+pub const LIBRARY_ROW: &str = "simhc library solver (InstanceSolver)";
 
 /// Samples `n` seeded trials.
 pub fn sample_trials(options: &BenchOptions) -> Result<Vec<UpnpScene>, String> {
@@ -155,6 +159,8 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
     let mut linear_hc = MethodRecord::new("Linear Initial + Simulator HC");
     let mut full = MethodRecord::new(SHIPPED_ROW);
     let mut all_roots = MethodRecord::new(ALL_ROOTS_ROW);
+    let library_solver = UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| e.to_string())?;
+    let mut library = MethodRecord::new(LIBRARY_ROW);
     let mut shipped_attempts = [0usize; 3];
     let all_roots_options = simhc::all_roots::AllRootsOptions::default();
     let bar = crate::app::progress_bar(trials.len() as u64, progress);
@@ -214,6 +220,20 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
             shipped_attempts[slot] += 1;
         }
 
+        // The runtime's library solver: the same assembly as every declared problem.
+        let t0 = Instant::now();
+        let result = library_solver.solve(corrs);
+        let micros = us(t0.elapsed());
+        let pose = match &result {
+            Ok(s) => upnp_pose(&s.x, corrs).map(|p| (p, false)),
+            Err(LibraryError::NotValidated { best, .. }) => upnp_pose(best, corrs).map(|p| (p, true)),
+            Err(_) => None,
+        };
+        library.outcomes.push(match pose {
+            Some((p, flagged)) => Outcome { flagged, ..outcome(&p.rotation, &p.translation, scene, micros, None) },
+            None => failed(micros),
+        });
+
         // All-roots HC: every path of the Lagrange system from the shipped start system, the
         // real solution closest to the ground truth kept (the paper's choice).
         let t0 = Instant::now();
@@ -240,7 +260,7 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
     }
     bar.finish_and_clear();
     let rows: Vec<Summary> =
-        [pred, pred_lm, rand_hc, pred_hc, linear, linear_hc, full, all_roots].iter().map(|m| m.summary(&THRESHOLDS)).collect();
+        [pred, pred_lm, rand_hc, pred_hc, linear, linear_hc, full, library, all_roots].iter().map(|m| m.summary(&THRESHOLDS)).collect();
     Ok(BenchReport { problem: "upnp", seed: options.seed, trials: trials.len(), source, thresholds: THRESHOLDS, rows, shipped_attempts })
 }
 

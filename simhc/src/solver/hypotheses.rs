@@ -1,7 +1,7 @@
 //! Several start hypotheses from one forward pass: a learned start trained with a
-//! winner-takes-all loss predicts [`LearnedStart::hypotheses`] guesses of the unknowns and a
+//! winner-takes-all loss predicts [`crate::pipeline::LearnedStart::hypotheses`] guesses of the unknowns and a
 //! score for each; they are ranked by their scores (an unscored network's by how well each
-//! explains all of the data's rows, [`DeclaredProblem::row_error`] squared and summed) and
+//! explains all of the data's rows, [`super::DeclaredProblem::row_error`] squared and summed) and
 //! tracked in that order before any fallback. Why rank: the network is trained so that *one*
 //! of its guesses is close, not a given one; its scores are trained to say which.
 //!
@@ -10,12 +10,10 @@
 //! expects them), index 2 free for a caller's extra provider (the bench's random start), then
 //! the other ranks in pairs.
 
-use super::problem::DeclaredProblem;
-use crate::pipeline::{Attempt, InputRows, LearnedStart, Method, OutputDecoding, StartError, StartProvider, MAX_HYPOTHESES};
-use crate::ProblemLayout;
+use super::instance::{LearnedHypotheses, Ranked};
+use crate::pipeline::{Attempt, Method, StartError, StartProvider};
 use nalgebra::SVector;
 use std::cell::RefCell;
-use std::marker::PhantomData;
 
 /// The index of the start provider of hypothesis `rank` (0 is the first-ranked), plain or
 /// refined on all rows, in a solve's provider list (module docs).
@@ -29,7 +27,7 @@ pub const fn provider_count(hypotheses: usize) -> usize {
     provider(if hypotheses == 0 { 0 } else { hypotheses - 1 }, true) + 1
 }
 
-/// The index of the problem's `j`-th other start ([`DeclaredProblem::other_starts`]) in a
+/// The index of the problem's `j`-th other start ([`super::DeclaredProblem::other_starts`]) in a
 /// solve's provider list: after the hypotheses' providers and slot 2.
 pub const fn other_provider(hypotheses: usize, j: usize) -> usize {
     let first = provider_count(hypotheses);
@@ -75,6 +73,21 @@ pub fn solver_schedule(base: &[Attempt], hypotheses: usize, starts: usize, simul
     out
 }
 
+/// `schedule` (of [`solver_schedule`], with `restarts` restarts at its end) with the other
+/// starts' attempts first within the cheap attempts and within the paths, otherwise in order:
+/// for a problem whose other start is cheaper than the learned one and as good on its data
+/// ([`super::InstanceProblem::other_starts_first`]: UPnP's closed-form linear start, about 3 us
+/// against the network's 10 us on 10 correspondences, exact on noise-free data).
+pub fn other_starts_first(schedule: &mut [Attempt], hypotheses: usize, starts: usize, restarts: usize) {
+    let others = other_provider(hypotheses, 0)..other_provider(hypotheses, starts);
+    let end = schedule.len().saturating_sub(restarts);
+    let first_path = schedule[..end].iter().position(is_path).unwrap_or(end);
+    let learned = |a: &Attempt| !others.contains(&a.provider);
+    // Stable: each group keeps its order.
+    schedule[..first_path].sort_by_key(learned);
+    schedule[first_path..end].sort_by_key(learned);
+}
+
 /// `base` (a schedule of one hypothesis over providers 0 and 1, [`super::shipped_schedule`])
 /// for `hypotheses` ranked hypotheses: its attempts other than Simulator HC on every hypothesis
 /// in rank order (cheap: a refinement and Gauss-Newton, a few microseconds each), then its
@@ -91,48 +104,38 @@ pub fn ranked_schedule(base: &[Attempt], hypotheses: usize) -> Vec<Attempt> {
     out
 }
 
-/// The ranked hypotheses of one solve, computed at the first request and kept for the data
-/// they were computed from (a solve asks for them on one canonical data vector).
-pub struct RankedStarts<'a, S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
-    learned: &'a LearnedStart<R, O>,
-    problem: &'a S,
-    ranked: RefCell<Option<Cached<NX, ND>>>,
-    sizes: PhantomData<fn() -> [(); NF]>,
+/// The ranked hypotheses of one solve, computed at the first request and kept for the datum
+/// they were computed from: a solve asks for them on one (canonical) datum. A set serves one
+/// datum: it is keyed by the datum's address, so make a new set for each datum (one at a
+/// reused address, a stack slot in a loop, would get the old hypotheses).
+pub struct RankedStarts<'a, L, const NX: usize> {
+    learned: &'a L,
+    ranked: RefCell<Option<(*const u8, Result<Ranked<NX>, StartError>)>>,
 }
 
-/// The data the hypotheses were ranked for, and the ranking.
-type Cached<const NX: usize, const ND: usize> = (SVector<f64, ND>, Result<Ranked<NX>, StartError>);
-
-/// Hypotheses in rank order.
-#[derive(Clone, Copy)]
-struct Ranked<const NX: usize> {
-    x: [SVector<f64, NX>; MAX_HYPOTHESES],
-    count: usize,
-}
-
-impl<'a, S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
-    RankedStarts<'a, S, R, O, NX, NF, NP, NC, ND>
-where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-    R: InputRows,
-    O: OutputDecoding,
-{
-    /// The hypotheses of `learned`, ranked on `problem`'s rows.
-    pub fn new(learned: &'a LearnedStart<R, O>, problem: &'a S) -> Self {
-        Self { learned, problem, ranked: RefCell::new(None), sizes: PhantomData }
+impl<'a, L, const NX: usize> RankedStarts<'a, L, NX> {
+    /// The hypotheses of `learned`, not yet computed.
+    pub fn new(learned: &'a L) -> Self {
+        Self { learned, ranked: RefCell::new(None) }
     }
 
-    /// Hypotheses per prediction.
-    pub fn count(&self) -> usize {
+    /// How many hypotheses a forward pass makes.
+    pub fn count<D: ?Sized>(&self) -> usize
+    where
+        L: LearnedHypotheses<D, NX>,
+    {
         self.learned.hypotheses()
     }
 
-    /// The hypothesis of rank `rank` for data `p`.
-    pub fn start(&self, p: &SVector<f64, ND>, rank: usize) -> Result<SVector<f64, NX>, StartError> {
+    /// The hypothesis of `rank` for `data` (an error when the network gave fewer).
+    pub fn start<D: ?Sized>(&self, data: &D, rank: usize) -> Result<SVector<f64, NX>, StartError>
+    where
+        L: LearnedHypotheses<D, NX>,
+    {
+        let key = data as *const D as *const u8;
         let mut cache = self.ranked.borrow_mut();
-        let stale = !matches!(&*cache, Some((q, _)) if q == p);
-        if stale {
-            *cache = Some((*p, self.rank(p)));
+        if !matches!(&*cache, Some((k, _)) if *k == key) {
+            *cache = Some((key, self.learned.rank(data)));
         }
         let Some((_, ranked)) = &*cache else { unreachable!("just filled") };
         match ranked {
@@ -141,67 +144,19 @@ where
             Err(e) => Err(e.clone()),
         }
     }
-
-    /// Predicts every hypothesis and sorts them by the data's summed squared row errors
-    /// (stable: ties keep the network's order). A hypothesis that decodes to no unknowns is
-    /// left out; an error when none decodes.
-    fn rank(&self, p: &SVector<f64, ND>) -> Result<Ranked<NX>, StartError> {
-        let blocks = self.learned.blocks();
-        let fail = |e: crate::regressor::RegressorError| StartError { provider: "learned", reason: e.to_string() };
-        let mut out = [0.0f64; crate::regressor::MAX_WIDTH];
-        let out = &mut out[..blocks.outputs()];
-        self.learned.predict_all(p.as_slice(), out).map_err(fail)?;
-        let mut decoded = [SVector::<f64, NX>::zeros(); MAX_HYPOTHESES];
-        let mut ok = [false; MAX_HYPOTHESES];
-        let mut last = None;
-        for k in 0..blocks.count {
-            match self.learned.decode(out, k, decoded[k].as_mut_slice()) {
-                Ok(()) => ok[k] = true,
-                Err(e) => last = Some(e),
-            }
-        }
-        // An unscored network of several hypotheses: ranked by the data's residual. One that
-        // does not decode ranks last and is dropped below.
-        let order = blocks.ranked::<MAX_HYPOTHESES>(out, |k| if ok[k] { self.score(&decoded[k], p) } else { f64::INFINITY });
-        let mut ranked = Ranked { x: [SVector::zeros(); MAX_HYPOTHESES], count: 0 };
-        for &k in order[..blocks.count].iter().filter(|&&k| ok[k]) {
-            ranked.x[ranked.count] = decoded[k];
-            ranked.count += 1;
-        }
-        match (ranked.count, last) {
-            (0, Some(e)) => Err(fail(e)),
-            _ => Ok(ranked),
-        }
-    }
-
-    /// Summed squared row errors of `x` over all rows of the data `p` (NaN counts as infinite).
-    fn score(&self, x: &SVector<f64, NX>, p: &SVector<f64, ND>) -> f64 {
-        let layout = S::Data::LAYOUT;
-        let (rows, per_row) = (layout.rows, layout.per_row);
-        let globals = &p.as_slice()[rows * per_row..];
-        let total: f64 = (0..rows).map(|i| self.problem.row_error(x, &p.as_slice()[i * per_row..(i + 1) * per_row], globals).powi(2)).sum();
-        if total.is_nan() {
-            f64::INFINITY
-        } else {
-            total
-        }
-    }
 }
 
-/// The hypothesis of one rank as a start provider.
-pub struct RankedStart<'h, 'a, S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+/// The hypothesis of one rank, as a start provider.
+pub struct RankedStart<'h, 'a, L, const NX: usize> {
     /// The solve's hypotheses.
-    pub set: &'h RankedStarts<'a, S, R, O, NX, NF, NP, NC, ND>,
-    /// Its rank (0: the best-ranked).
+    pub set: &'h RankedStarts<'a, L, NX>,
+    /// Which one (0: the best).
     pub rank: usize,
 }
 
-impl<S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
-    for RankedStart<'_, '_, S, R, O, NX, NF, NP, NC, ND>
+impl<L, D: ?Sized, const NX: usize> StartProvider<D, NX> for RankedStart<'_, '_, L, NX>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-    R: InputRows,
-    O: OutputDecoding,
+    L: LearnedHypotheses<D, NX>,
 {
     fn name(&self) -> &'static str {
         if self.rank == 0 {
@@ -210,14 +165,15 @@ where
             "learned, another hypothesis"
         }
     }
-    fn start(&self, p: &SVector<f64, ND>) -> Result<SVector<f64, NX>, StartError> {
-        self.set.start(p, self.rank)
+    fn start(&self, data: &D) -> Result<SVector<f64, NX>, StartError> {
+        self.set.start(data, self.rank)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pipeline::MAX_HYPOTHESES;
 
     #[test]
     fn providers_keep_the_one_hypothesis_slots_and_never_collide() {
@@ -255,6 +211,10 @@ mod tests {
         ];
         assert_eq!(solver_schedule(base, 2, 1, 1, 2), expect);
         assert_eq!(solver_schedule(base, 4, 0, 0, 0), ranked_schedule(base, 4));
+        let mut first = solver_schedule(base, 2, 1, 1, 2);
+        other_starts_first(&mut first, 2, 1, 2);
+        let order = [2, 0, 1, 7, 8, 3, 4, 5, 6, 9, 10].map(|i| expect[i]);
+        assert_eq!(first, order, "the other start's Gauss-Newton, then its paths, come first; restarts stay last");
     }
 
     #[test]

@@ -1,7 +1,9 @@
-//! A declared problem's compiled solver as a value you call: built once (weights, start
-//! system), then [`Solver::solve`] any number of times, from any thread
-//! (`Send + Sync` when the problem is), or [`Solver::solve_batch`] across cores. The `solve`
-//! command is this solver reading one file.
+//! A problem's compiled solver as a value you call: built once (weights, start system), then
+//! [`InstanceSolver::solve`] any number of times, from any thread (`Send + Sync` when the
+//! problem is), or [`InstanceSolver::solve_batch`] across cores. The `solve` command is this
+//! solver reading one file. [`InstanceSolver`] takes any [`InstanceProblem`] (UPnP's data is
+//! a list of correspondences of any length); [`Solver`] is its name for a row-wise
+//! [`DeclaredProblem`], whose data is a parameter vector.
 //!
 //! ```ignore
 //! let solver = simhc::solver::Solver::new(GenRelPose::new())?;        // shipped weights, noise 0
@@ -11,28 +13,30 @@
 //! }
 //! ```
 //!
-//! A solve checks the data ([`DeclaredProblem::check_input`]), then runs its schedule in the
-//! problem's canonical frame ([`Solver::schedule`]: the shipped attempts on the learned start's
+//! A solve checks the data ([`InstanceProblem::check_data`]; a row-wise problem's NaN check
+//! and [`DeclaredProblem::check_input`]), then runs its schedule in the problem's canonical
+//! frame ([`InstanceSolver::schedule`]: the shipped attempts on the learned start's
 //! hypotheses, the problem's other starts and simulators, its restarts), then the all-roots
 //! fallback when the problem has one; only an end point that the problem's
 //! validator accepts on all the data comes back as `Ok`. A solve makes no heap allocation
 //! when it ends validated and the problem's own hooks do not allocate (a
-//! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`).
+//! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`; UPnP's
+//! learned start and simulator allocate their rows and reprojected correspondences).
 
-use super::hypotheses::{other_provider, provider, provider_count, solver_schedule, RankedStart, RankedStarts};
-use super::parts::{Canon, FirstRows, FirstRowsError, Refined};
-use super::problem::{DeclaredProblem, OtherSimulator, OtherStart};
+use super::hypotheses::{other_provider, other_starts_first, provider, provider_count, solver_schedule, RankedStart, RankedStarts};
+use super::instance::{InstanceProblem, LearnedHypotheses, OwnCanon, OwnFallback, OwnSimulator, Parts, RefinedStart};
+use super::parts::FirstRowsError;
+use super::problem::DeclaredProblem;
 use super::restarts::{restart_provider, RestartStart, MAX_RESTARTS};
-use super::subsystem::AllRootsFallback;
-use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{
-    Attempt, AttemptError, Generic, InputRows, LayoutOutputs, LayoutRows, LearnedStart, Method, Origin, OutputDecoding, Pipeline,
-    PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
+    Attempt, AttemptError, InputRows, LayoutOutputs, LayoutRows, LearnedStart, Method, Origin, OutputDecoding, Pipeline, PipelineError,
+    PipelineOptions, Solved, StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
 };
-use crate::regressor::{FoldedNetwork, RegressorError};
+use crate::regressor::RegressorError;
 use crate::ProblemLayout;
 use nalgebra::SVector;
 use rayon::prelude::*;
+use std::borrow::Borrow;
 use std::fmt::Debug;
 use std::marker::PhantomData;
 use std::sync::Arc;
@@ -203,46 +207,68 @@ pub enum SolverError {
     Weights(#[from] RegressorError),
 }
 
-/// The learned start of a solver.
+/// The learned start of a row-wise solver.
 pub type SolverStart<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> =
     LearnedStart<ProblemRows<S, NX, NF, NP, NC, ND>, ProblemOutputs<S, NX, NF, NP, NC, ND>>;
 
-/// The check of a validator `V` of the data.
-pub type Check<V, const NX: usize, const ND: usize> = <V as Validator<SVector<f64, ND>, NX>>::Check;
+/// The check of a validator `V` of the data `D`.
+pub type CheckOf<V, const NX: usize, D> = <V as Validator<D, NX>>::Check;
 
-/// What the pipeline of a solve returns ([`Solver::run_pipeline`]), for a problem whose
-/// validator is `V`.
-pub type PipelineOutcome<V, const NX: usize, const ND: usize> =
-    Result<Solved<Check<V, NX, ND>, NX>, PipelineError<FirstRowsError, Check<V, NX, ND>, NX>>;
+/// The check of a validator `V` of a data vector.
+pub type Check<V, const NX: usize, const ND: usize> = CheckOf<V, NX, SVector<f64, ND>>;
 
-/// What a solve returns, for a problem whose validator is `V`.
-pub type Outcome<V, const NX: usize, const ND: usize> = Result<Solution<Check<V, NX, ND>, NX>, SolveError<Check<V, NX, ND>, NX>>;
+/// What the pipeline of a solve returns ([`InstanceSolver::run_pipeline`]), for a problem whose
+/// validator of the data `D` is `V`.
+pub type InstancePipelineOutcome<V, const NX: usize, D> =
+    Result<Solved<CheckOf<V, NX, D>, NX>, PipelineError<FirstRowsError, CheckOf<V, NX, D>, NX>>;
 
-/// A declared problem's solver ([module docs](self)).
-pub struct Solver<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
+/// [`InstancePipelineOutcome`] of a data vector.
+pub type PipelineOutcome<V, const NX: usize, const ND: usize> = InstancePipelineOutcome<V, NX, SVector<f64, ND>>;
+
+/// What a solve returns, for a problem whose validator of the data `D` is `V`.
+pub type InstanceOutcome<V, const NX: usize, D> = Result<Solution<CheckOf<V, NX, D>, NX>, SolveError<CheckOf<V, NX, D>, NX>>;
+
+/// [`InstanceOutcome`] of a data vector.
+pub type Outcome<V, const NX: usize, const ND: usize> = InstanceOutcome<V, NX, SVector<f64, ND>>;
+
+/// A start provider of the data `D`, shared by the threads of a solver.
+type SharedStart<D, const NX: usize> = Box<dyn StartProvider<D, NX> + Send + Sync>;
+
+/// A simulator of the data `D`, shared by the threads of a solver.
+type SharedSimulator<D, const NX: usize, const NF: usize, const NP: usize> = Box<dyn StartSimulator<D, NX, NF, NP> + Send + Sync>;
+
+/// A problem's solver for data of type `D` ([module docs](self)); [`Solver`] for a row-wise
+/// problem.
+pub struct InstanceSolver<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, D: ?Sized>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    S: InstanceProblem<NX, NF, NP, NC, D>,
 {
     problem: Arc<S>,
-    learned: SolverStart<S, NX, NF, NP, NC, ND>,
+    learned: S::Learned,
     validator: S::Validator,
-    /// [`DeclaredProblem::other_starts`], made once.
-    other_starts: Vec<OtherStart<NX, ND>>,
-    /// [`DeclaredProblem::other_simulators`], made once.
-    other_simulators: Vec<OtherSimulator<NX, NF, NP, ND>>,
+    /// [`InstanceProblem::extra_starts`], made once.
+    other_starts: Vec<SharedStart<D, NX>>,
+    /// [`InstanceProblem::extra_simulators`], made once.
+    other_simulators: Vec<SharedSimulator<D, NX, NF, NP>>,
     /// [`solver_schedule`] of [`shipped_schedule`].
     schedule: Vec<Attempt>,
-    /// [`DeclaredProblem::options`], made once.
+    /// [`InstanceProblem::solve_options`], made once.
     options: PipelineOptions,
+    /// [`InstanceProblem::restarts`].
+    restarts: usize,
 }
 
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Solver<S, NX, NF, NP, NC, ND>
+/// A row-wise problem's solver: its data is the parameter vector of its data instance.
+pub type Solver<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> =
+    InstanceSolver<S, NX, NF, NP, NC, SVector<f64, ND>>;
+
+impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, D: ?Sized> InstanceSolver<S, NX, NF, NP, NC, D>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    S: InstanceProblem<NX, NF, NP, NC, D>,
 {
     /// The solver of `problem` with its shipped weights, for noise-free data.
     pub fn new(problem: S) -> Result<Self, SolverError> {
-        let weights = problem.weights().ok_or(SolverError::NoWeights(S::NAME))?;
+        let weights = problem.shipped_weights().ok_or(SolverError::NoWeights(problem.name()))?;
         Self::with_weights(problem, weights, 0.0)
     }
 
@@ -252,23 +278,26 @@ where
         Self::with_shared(Arc::new(problem), weights, noise)
     }
 
-    /// [`Solver::with_weights`] for a problem shared with other holders.
+    /// [`InstanceSolver::with_weights`] for a problem shared with other holders.
     pub fn with_shared(problem: Arc<S>, weights: &[u8], noise: f64) -> Result<Self, SolverError> {
-        let network = FoldedNetwork::from_bytes(weights)?;
-        let learned =
-            LearnedStart::with_outputs(network, S::Data::LAYOUT, ProblemRows::new(problem.clone()), ProblemOutputs::new(problem.clone()))?;
-        let validator = problem.validator(noise);
-        let (other_starts, other_simulators) = (problem.other_starts(), problem.other_simulators());
+        let learned = S::learned(&problem, weights)?;
+        let validator = problem.make_validator(noise);
+        let (other_starts, other_simulators) = (problem.extra_starts(), problem.extra_simulators());
+        let restarts = problem.restarts();
         let counts = [("other starts", other_starts.len(), MAX_OTHERS), ("other simulators", other_simulators.len(), MAX_OTHERS)];
-        for (what, count, most) in counts.into_iter().chain([("restarts", S::RESTARTS, MAX_RESTARTS)]) {
+        for (what, count, most) in counts.into_iter().chain([("restarts", restarts, MAX_RESTARTS)]) {
             if count > most {
-                return Err(SolverError::TooMany { problem: S::NAME, what, count, most });
+                return Err(SolverError::TooMany { problem: problem.name(), what, count, most });
             }
         }
         let hypotheses = learned.hypotheses();
-        let schedule = solver_schedule(shipped_schedule(S::REFINES), hypotheses, other_starts.len(), other_simulators.len(), S::RESTARTS);
-        let options = problem.options();
-        Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule, options })
+        let mut schedule =
+            solver_schedule(shipped_schedule(problem.refines()), hypotheses, other_starts.len(), other_simulators.len(), restarts);
+        if problem.other_starts_first() {
+            other_starts_first(&mut schedule, hypotheses, other_starts.len(), restarts);
+        }
+        let options = problem.solve_options();
+        Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule, options, restarts })
     }
 
     /// The problem.
@@ -282,29 +311,29 @@ where
     }
 
     /// The learned start.
-    pub fn learned_start(&self) -> &SolverStart<S, NX, NF, NP, NC, ND> {
+    pub fn learned_start(&self) -> &S::Learned {
         &self.learned
     }
 
-    /// The attempts of [`Solver::solve`]: [`shipped_schedule`] over the learned start's ranked
-    /// hypotheses, the problem's other starts and simulators and its restarts, every start's
-    /// Gauss-Newton before the first path ([`solver_schedule`]; the providers are laid out as
-    /// [`super::hypotheses::provider`], [`super::hypotheses::other_provider`] and
+    /// The attempts of [`InstanceSolver::solve`]: [`shipped_schedule`] over the learned start's
+    /// ranked hypotheses, the problem's other starts and simulators and its restarts, every
+    /// start's Gauss-Newton before the first path ([`solver_schedule`]; the providers are laid
+    /// out as [`super::hypotheses::provider`], [`super::hypotheses::other_provider`] and
     /// [`super::restarts::restart_provider`] say).
     pub fn schedule(&self) -> &[Attempt] {
         &self.schedule
     }
 
-    /// Solves the data `p` (all rows, the data layout's order): a validated solution or a
-    /// typed error; a wrong answer is never returned as `Ok`.
-    pub fn solve(&self, p: &SVector<f64, ND>) -> Outcome<S::Validator, NX, ND> {
-        self.run(p, &self.schedule, true)
+    /// Solves the data (all rows, the data layout's order for a row-wise problem): a validated
+    /// solution or a typed error; a wrong answer is never returned as `Ok`.
+    pub fn solve(&self, data: &D) -> InstanceOutcome<S::Validator, NX, D> {
+        self.run(data, &self.schedule, true)
     }
 
     /// A solve with these attempts, with or without the all-roots fallback (a RANSAC sample
     /// goes without).
-    pub(crate) fn run(&self, p: &SVector<f64, ND>, schedule: &[Attempt], fallback: bool) -> Outcome<S::Validator, NX, ND> {
-        match self.run_pipeline(p, schedule, fallback, None) {
+    pub(crate) fn run(&self, data: &D, schedule: &[Attempt], fallback: bool) -> InstanceOutcome<S::Validator, NX, D> {
+        match self.run_pipeline(data, schedule, fallback, None) {
             Ok(s) => Ok(Solution { x: s.x, origin: s.origin, attempts: s.attempts, check: s.check }),
             Err(PipelineError::Input(e)) => Err(SolveError::Input(e)),
             Err(PipelineError::NotValidated(s)) => Err(SolveError::NotValidated { best: s.x, check: s.check, attempts: s.attempts }),
@@ -319,30 +348,28 @@ where
     /// bench tallies.
     pub fn run_pipeline(
         &self,
-        p: &SVector<f64, ND>,
+        data: &D,
         schedule: &[Attempt],
         fallback: bool,
-        extra: Option<&dyn StartProvider<SVector<f64, ND>, NX>>,
-    ) -> PipelineOutcome<S::Validator, NX, ND> {
+        extra: Option<&dyn StartProvider<D, NX>>,
+    ) -> InstancePipelineOutcome<S::Validator, NX, D> {
         // The user's data is checked before a canonical frame mixes its rows, so that an error
         // names the row and field the user wrote.
-        if let Some(index) = p.iter().position(|v| !v.is_finite()) {
-            return Err(PipelineError::Input(NonFiniteParameter::locate(&S::Data::LAYOUT, index).into()));
-        }
-        self.problem.check_input(p).map_err(|e| PipelineError::Input(e.into()))?;
-        let target = FirstRows::<S::Tracked>::new();
-        let simulator = Generic(S::Tracked::default());
-        let set = RankedStarts::new(&self.learned, &*self.problem);
-        let ranked: [RankedStart<'_, '_, S, _, _, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
-            std::array::from_fn(|rank| RankedStart { set: &set, rank });
-        let refined: [Refined<'_, S, NX, NF, NP, NC, ND>; MAX_HYPOTHESES] =
-            std::array::from_fn(|rank| Refined { inner: &ranked[rank], problem: &*self.problem });
+        self.problem.check_data(data).map_err(PipelineError::Input)?;
+        let problem = &*self.problem;
+        let target = Parts::<S, NX, NF, NC>(problem);
+        let simulator = OwnSimulator::<S, NC>(problem);
+        let set = RankedStarts::new(&self.learned);
+        let count = set.count::<D>();
+        let ranked: [RankedStart<'_, '_, S::Learned, NX>; MAX_HYPOTHESES] = std::array::from_fn(|rank| RankedStart { set: &set, rank });
+        let refined: [RefinedStart<'_, '_, S, S::Learned, NX, NF, NP, NC>; MAX_HYPOTHESES] =
+            std::array::from_fn(|rank| RefinedStart { set: &set, rank, problem });
         let none = NoStart;
-        let restarts: [RestartStart<'_, '_, S, _, _, NX, NF, NP, NC, ND>; MAX_RESTARTS] =
-            std::array::from_fn(|k| RestartStart { set: &set, problem: &*self.problem, k });
+        let restarts: [RestartStart<'_, '_, S, S::Learned, NX, NF, NP, NC>; MAX_RESTARTS] =
+            std::array::from_fn(|k| RestartStart { set: &set, problem, k });
         const SLOTS: usize = provider_count(MAX_HYPOTHESES) + MAX_OTHERS + MAX_RESTARTS;
-        let mut starts: [&dyn StartProvider<SVector<f64, ND>, NX>; SLOTS] = [&none; SLOTS];
-        for rank in 0..set.count() {
+        let mut starts: [&dyn StartProvider<D, NX>; SLOTS] = [&none; SLOTS];
+        for rank in 0..count {
             starts[provider(rank, false)] = &ranked[rank];
             starts[provider(rank, true)] = &refined[rank];
         }
@@ -350,36 +377,37 @@ where
             starts[2] = extra;
         }
         for (j, other) in self.other_starts.iter().enumerate() {
-            starts[other_provider(set.count(), j)] = &**other;
+            starts[other_provider(count, j)] = &**other;
         }
         let others = self.other_starts.len();
-        for (k, restart) in restarts.iter().enumerate().take(S::RESTARTS) {
-            starts[restart_provider(set.count(), others, k)] = restart;
+        for (k, restart) in restarts.iter().enumerate().take(self.restarts) {
+            starts[restart_provider(count, others, k)] = restart;
         }
-        let starts = &starts[..restart_provider(set.count(), others, S::RESTARTS)];
-        let mut others: [&dyn StartSimulator<SVector<f64, ND>, NX, NF, NP>; MAX_OTHERS] = [&simulator; MAX_OTHERS];
+        let starts = &starts[..restart_provider(count, others, self.restarts)];
+        let mut others: [&dyn StartSimulator<D, NX, NF, NP>; MAX_OTHERS] = [&simulator; MAX_OTHERS];
         for (slot, other) in others.iter_mut().zip(&self.other_simulators) {
             *slot = &**other;
         }
         let others = &others[..self.other_simulators.len()];
-        let all_roots = self.problem.all_roots().filter(|r| fallback && r.has_start_system()).map(AllRootsFallback);
+        let all_roots = OwnFallback::<S, NF, NC>(problem);
         let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, starts, &simulator, &self.validator)
             .with_schedule(schedule)
             .with_other_simulators(others)
             .with_options(PipelineOptions { fallback, ..self.options });
-        if let Some(f) = &all_roots {
-            pipeline = pipeline.with_fallback(f);
+        if fallback && problem.has_fallback() {
+            pipeline = pipeline.with_fallback(&all_roots);
         }
-        pipeline.solve_canonical(&Canon(&*self.problem), p)
+        pipeline.solve_canonical(&OwnCanon::<S, NF, NP, NC>(problem), data)
     }
 
-    /// [`Solver::solve`] on every element of `data`, in order, across rayon's threads.
-    pub fn solve_batch(&self, data: &[SVector<f64, ND>]) -> Vec<Outcome<S::Validator, NX, ND>>
+    /// [`InstanceSolver::solve`] on every element of `data`, in order, across rayon's threads.
+    pub fn solve_batch<T>(&self, data: &[T]) -> Vec<InstanceOutcome<S::Validator, NX, D>>
     where
+        T: Borrow<D> + Sync,
         Self: Sync,
-        Check<S::Validator, NX, ND>: Send,
+        CheckOf<S::Validator, NX, D>: Send,
     {
-        data.par_iter().map(|p| self.solve(p)).collect()
+        data.par_iter().map(|p| self.solve(p.borrow())).collect()
     }
 }
 

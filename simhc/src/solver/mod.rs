@@ -13,6 +13,8 @@
 //! - [`parts`]: the parts a solve is assembled from (tracked parameters, random and refined
 //!   starts, the canonical frame);
 //! - [`subsystem`]: all roots of a square subsystem;
+//! - [`instance`]: what a solver needs of a problem, for data of any type
+//!   ([`InstanceProblem`]), and the blanket impl for every [`DeclaredProblem`];
 //! - [`hypotheses`]: a learned start's several hypotheses, ranked on the data;
 //! - [`library`]: the solver, [`Solver`];
 //! - [`restarts`]: restarts around the learned start, before the fallback;
@@ -20,6 +22,7 @@
 
 pub mod estimate;
 pub mod hypotheses;
+pub mod instance;
 pub mod library;
 pub mod parts;
 pub mod problem;
@@ -27,8 +30,10 @@ pub mod restarts;
 pub mod subsystem;
 
 pub use estimate::{row_residual, EstimateError, EstimateInfo};
+pub use instance::{InstanceProblem, LearnedHypotheses, Ranked, RowwiseLearned};
 pub use library::{
-    sample_schedule, shipped_schedule, Outcome, ProblemOutputs, ProblemRows, Solution, SolveError, Solver, SolverError, MAX_OTHERS,
+    sample_schedule, shipped_schedule, InstanceOutcome, InstanceSolver, Outcome, ProblemOutputs, ProblemRows, Solution, SolveError, Solver,
+    SolverError, MAX_OTHERS,
 };
 pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, RandomStart, Refined};
 pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, UnknownsMap};

@@ -72,6 +72,14 @@ pub enum FirstRowsError {
     /// The data is degenerate ([`DeclaredProblem::check_input`]).
     #[error(transparent)]
     Degenerate(#[from] DegenerateInput),
+    /// Fewer correspondences than the problem needs.
+    #[error("too few correspondences: got {got}, need at least {need}")]
+    TooFew {
+        /// Correspondences given.
+        got: usize,
+        /// Correspondences needed.
+        need: usize,
+    },
     /// The tracked instance is not a first-rows part of the data.
     #[error("the tracked instance has {tracked} parameters, which are not the first rows and the globals of the data's {data}")]
     Sizes {

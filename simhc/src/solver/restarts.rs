@@ -1,6 +1,6 @@
 //! Restarts around the learned start: when no attempt from the learned hypotheses or the other
 //! starts validated, Gauss-Newton from starts near the first-ranked hypothesis
-//! ([`DeclaredProblem::restart`]). Why near the prediction, and not random: a learned start
+//! ([`super::DeclaredProblem::restart`]). Why near the prediction, and not random: a learned start
 //! that fails is usually off by a rotation of tens of degrees, outside Gauss-Newton's basin
 //! but inside the one of a start rotated towards the truth; rotating the prediction about
 //! fixed axes by growing angles ([`rotated_restart`]) covers that neighbourhood first and the
@@ -12,13 +12,13 @@
 //! ([`restart_attempts`]).
 
 use super::hypotheses::{other_provider, RankedStarts};
-use super::problem::DeclaredProblem;
+use super::instance::{InstanceProblem, LearnedHypotheses};
 use crate::layout::{FieldKind, Layout};
 use crate::metrics::{quat_from_rotation, rotation_from_quat};
-use crate::pipeline::{Attempt, InputRows, Method, OutputDecoding, StartError, StartProvider};
+use crate::pipeline::{Attempt, Method, StartError, StartProvider};
 use nalgebra::{Rotation3, SVector, Unit, Vector3};
 
-/// Most restarts a problem may ask for ([`DeclaredProblem::RESTARTS`]): a solve holds their
+/// Most restarts a problem may ask for ([`super::DeclaredProblem::RESTARTS`]): a solve holds their
 /// providers in a fixed array, without allocation.
 pub const MAX_RESTARTS: usize = 96;
 
@@ -52,7 +52,7 @@ pub fn restart_rotation(k: usize, angles_deg: &[f64]) -> Option<Rotation3<f64>> 
 
 /// `x` with the rotation of its first quaternion unknown (`layout`'s order `[w, x, y, z]`)
 /// turned by [`restart_rotation`]`(k, angles_deg)` on the left (`R' = Q R`), the other unknowns
-/// kept: a [`DeclaredProblem::restart`] for any layout with a rotation. `None` past the end of
+/// kept: a [`super::DeclaredProblem::restart`] for any layout with a rotation. `None` past the end of
 /// the schedule, for a layout without a quaternion unknown, or for a zero quaternion.
 pub fn rotated_restart<const NX: usize>(layout: &Layout, x: &SVector<f64, NX>, k: usize, angles_deg: &[f64]) -> Option<SVector<f64, NX>> {
     let turn = restart_rotation(k, angles_deg)?;
@@ -80,29 +80,28 @@ pub fn restart_attempts(hypotheses: usize, others: usize, restarts: usize) -> im
 }
 
 /// Restart `k` around the first-ranked hypothesis of a solve, as a start provider.
-pub struct RestartStart<'h, 'a, S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
+pub struct RestartStart<'h, 'a, S, L, const NX: usize, const NF: usize, const NP: usize, const NC: usize> {
     /// The solve's hypotheses.
-    pub set: &'h RankedStarts<'a, S, R, O, NX, NF, NP, NC, ND>,
+    pub set: &'h RankedStarts<'a, L, NX>,
     /// The problem.
     pub problem: &'a S,
     /// Which restart.
     pub k: usize,
 }
 
-impl<S, R, O, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
-    for RestartStart<'_, '_, S, R, O, NX, NF, NP, NC, ND>
+impl<S, L, D: ?Sized, const NX: usize, const NF: usize, const NP: usize, const NC: usize> StartProvider<D, NX>
+    for RestartStart<'_, '_, S, L, NX, NF, NP, NC>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-    R: InputRows,
-    O: OutputDecoding,
+    S: InstanceProblem<NX, NF, NP, NC, D>,
+    L: LearnedHypotheses<D, NX>,
 {
     fn name(&self) -> &'static str {
         "restart around the learned start"
     }
-    fn start(&self, p: &SVector<f64, ND>) -> Result<SVector<f64, NX>, StartError> {
-        let x = self.set.start(p, 0)?;
+    fn start(&self, data: &D) -> Result<SVector<f64, NX>, StartError> {
+        let x = self.set.start(data, 0)?;
         self.problem
-            .restart(p, &x, self.k)
+            .restart_start(data, &x, self.k)
             .ok_or_else(|| StartError { provider: "restart", reason: format!("the problem has no restart {} around this start", self.k) })
     }
 }

@@ -1,0 +1,235 @@
+//! UPnP through the runtime's problem trait: [`UpnpProblem`] implements
+//! [`simhc::solver::InstanceProblem`] for any number of correspondences
+//! (`D = [UpnpCorrespondence]`), so the library solver, [`simhc::solver::InstanceSolver`],
+//! solves generalized absolute pose with the same assembly as every declared problem (the
+//! learned start's Gauss-Newton, the other starts, one path each, the all-roots fallback,
+//! validation on all correspondences):
+//!
+//! ```no_run
+//! use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};
+//! # let corrs: Vec<simhc_problems::upnp::scene::UpnpCorrespondence> = Vec::new();
+//! let solver = UpnpLibrarySolver::new(UpnpProblem::default())?;   // shipped weights
+//! match solver.solve(&corrs[..]) {
+//!     Ok(s) => println!("rotation quaternion {}", s.x),          // validated on all rows
+//!     Err(e) => eprintln!("{e}"),                                // typed, flagged
+//! }
+//! # Ok::<(), simhc::solver::SolverError>(())
+//! ```
+//!
+//! Why UPnP implements the general trait and not [`simhc::solver::DeclaredProblem`]: its
+//! data is a list of any length, and its tracked parameters are the 66 entries of the cost
+//! matrix `M` *derived* from all correspondences, not the first rows of the data.
+//!
+//! The translation of a solution is the least-squares one of its rotation
+//! ([`upnp_pose`]); the unknowns are the quaternion `[w, x, y, z]`.
+
+use super::features::{UPNP_OUTPUTS, UPNP_ROW_WIDTH};
+use super::geometry::{check_rays, check_spread, translation_from_rotation, upnp_system, UpnpError, UPNP_MIN_CORRESPONDENCES};
+use super::linear::linear_rotation;
+use super::scene::UpnpCorrespondence;
+use super::solver::{global_minimum, reprojected_cost, UpnpPose, UpnpValidation, UPNP_WEIGHTS};
+use super::{params_of, Upnp};
+use crate::metrics::{quat_from_rotation, rotation_from_quat};
+use nalgebra::SVector;
+use simhc::pipeline::learned::NonFiniteParameter;
+use simhc::pipeline::{PipelineOptions, StartError, StartProvider, Validator, Verdict};
+use simhc::regressor::{FoldedNetwork, RegressorError};
+use simhc::solver::{DegenerateInput, FirstRowsError, InstanceProblem, InstanceSolver, LearnedHypotheses, Ranked, Refinement};
+use simhc::tracker::TrackerOptions;
+use simhc::SimulatorError;
+use std::sync::Arc;
+
+/// The library solver of UPnP.
+pub type UpnpLibrarySolver = InstanceSolver<UpnpProblem, 4, 5, 66, 35, [UpnpCorrespondence]>;
+
+/// Generalized absolute pose (UPnP) as an instance problem.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpnpProblem {
+    /// Largest angle (radians) between a bearing and its point under an accepted pose, for
+    /// noise-free data; with noise `sigma` (radians) the validator accepts up to
+    /// `max(max_angle, 8 sigma)`. Default `0.02`, as [`super::solver::UpnpSolverOptions`].
+    pub max_angle: f64,
+    /// Points allowed behind their rays in an accepted pose. Default `0`.
+    pub max_behind: usize,
+    /// Whether to try the linear relaxation ([`super::linear`]) as a start beside the learned
+    /// one. Default `true`.
+    pub linear_start: bool,
+    /// Whether the all-roots fallback (the global minimum of the cost) may run. Default `true`.
+    pub fallback: bool,
+}
+
+impl Default for UpnpProblem {
+    fn default() -> Self {
+        Self { max_angle: 0.02, max_behind: 0, linear_start: true, fallback: true }
+    }
+}
+
+/// The pose of a quaternion with the least-squares translation of its rotation (`None` for
+/// a zero or non-finite quaternion, or degenerate rays).
+pub fn upnp_pose(x: &SVector<f64, 4>, corrs: &[UpnpCorrespondence]) -> Option<UpnpPose> {
+    let n = x.norm();
+    if !(n > 0.0 && n.is_finite()) {
+        return None;
+    }
+    let q = [x[0] / n, x[1] / n, x[2] / n, x[3] / n];
+    let rotation = rotation_from_quat(q);
+    let translation = translation_from_rotation(&rotation, corrs).ok()?;
+    Some(UpnpPose { rotation, translation, quaternion: q })
+}
+
+/// Accepts a quaternion whose pose puts every point within `max_angle` of its bearing, at most
+/// `max_behind` behind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpnpPoseValidator {
+    /// Largest accepted angle (radians).
+    pub max_angle: f64,
+    /// Points allowed behind their rays.
+    pub max_behind: usize,
+}
+
+impl Validator<[UpnpCorrespondence], 4> for UpnpPoseValidator {
+    type Check = UpnpValidation;
+    fn check(&self, corrs: &[UpnpCorrespondence], x: &SVector<f64, 4>) -> UpnpValidation {
+        match upnp_pose(x, corrs) {
+            Some(pose) => UpnpValidation::of(&pose, corrs),
+            None => UpnpValidation { max_angle: f64::INFINITY, behind: corrs.len() },
+        }
+    }
+    fn verdict(&self, check: &UpnpValidation) -> Verdict {
+        if check.passes(self.max_angle, self.max_behind) {
+            Verdict::Accept
+        } else {
+            Verdict::Reject
+        }
+    }
+    fn better(&self, a: &UpnpValidation, b: &UpnpValidation) -> bool {
+        (a.behind, a.max_angle) < (b.behind, b.max_angle)
+    }
+}
+
+/// The learned start of UPnP: the network on the canonical rows of all correspondences
+/// ([`super::features`]), one hypothesis.
+pub struct UpnpLearned {
+    network: FoldedNetwork,
+}
+
+impl UpnpLearned {
+    /// The learned start of `network` (input rows of width [`UPNP_ROW_WIDTH`], 4 outputs).
+    pub fn new(network: FoldedNetwork) -> Result<Self, RegressorError> {
+        if network.input_width() != UPNP_ROW_WIDTH {
+            return Err(RegressorError::Format("network input width differs from UPnP's rows (9)"));
+        }
+        if network.output_width() != UPNP_OUTPUTS {
+            return Err(RegressorError::Format("network outputs are not UPnP's 4"));
+        }
+        Ok(Self { network })
+    }
+}
+
+impl LearnedHypotheses<[UpnpCorrespondence], 4> for UpnpLearned {
+    fn hypotheses(&self) -> usize {
+        1
+    }
+    fn rank(&self, corrs: &[UpnpCorrespondence]) -> Result<Ranked<4>, StartError> {
+        let q = super::solver::predict(&self.network, corrs).map_err(|e| StartError { provider: "learned", reason: e.to_string() })?;
+        Ok(Ranked::one(SVector::from(q)))
+    }
+}
+
+/// The closed-form linear relaxation as a start ([`super::linear::linear_rotation`]).
+struct LinearStart;
+
+impl StartProvider<[UpnpCorrespondence], 4> for LinearStart {
+    fn name(&self) -> &'static str {
+        "linear"
+    }
+    fn start(&self, corrs: &[UpnpCorrespondence]) -> Result<SVector<f64, 4>, StartError> {
+        let r = linear_rotation(corrs).map_err(|e| StartError { provider: "linear", reason: e.to_string() })?;
+        Ok(SVector::from(quat_from_rotation(&r)))
+    }
+}
+
+/// A UPnP input error as the solver's: the correspondence (and field) at fault.
+fn input_error(e: UpnpError) -> FirstRowsError {
+    let degenerate = |row, reason| FirstRowsError::Degenerate(DegenerateInput { row, reason });
+    match e {
+        UpnpError::TooFewCorrespondences { got, need } => FirstRowsError::TooFew { got, need },
+        // `check_data` names the field before `validate` can say this.
+        UpnpError::NonFinite { index } => FirstRowsError::NonFinite(NonFiniteParameter { row: Some(index), field: "?", index }),
+        UpnpError::ZeroBearing { index } => degenerate(Some(index), "zero-length bearing `f`"),
+        UpnpError::Degenerate => degenerate(None, "all bearings parallel: the translation is not determined"),
+        UpnpError::CollinearPoints => degenerate(None, "all world points on one line: the rotation about it is not determined"),
+    }
+}
+
+impl InstanceProblem<4, 5, 66, 35, [UpnpCorrespondence]> for UpnpProblem {
+    type Tracked = Upnp;
+    type Validator = UpnpPoseValidator;
+    type Learned = UpnpLearned;
+    type Canonical = Vec<UpnpCorrespondence>;
+
+    fn name(&self) -> &'static str {
+        "upnp"
+    }
+    fn shipped_weights(&self) -> Option<&'static [u8]> {
+        Some(UPNP_WEIGHTS)
+    }
+    fn learned(_problem: &Arc<Self>, weights: &[u8]) -> Result<UpnpLearned, RegressorError> {
+        UpnpLearned::new(FoldedNetwork::from_bytes(weights)?)
+    }
+    fn make_validator(&self, noise: f64) -> UpnpPoseValidator {
+        UpnpPoseValidator { max_angle: self.max_angle.max(8.0 * noise), max_behind: self.max_behind }
+    }
+    fn solve_options(&self) -> PipelineOptions {
+        // As `UpnpSolver`: the paper's single-path tracker, the first validated end point.
+        PipelineOptions { tracker: TrackerOptions::single_path(), extra_attempts: 0, ..PipelineOptions::default() }
+    }
+    fn other_starts_first(&self) -> bool {
+        // The linear start costs about 3 us against the network's 10 us and is exact without
+        // noise: `UpnpSolver` tries it first too.
+        true
+    }
+    fn extra_starts(&self) -> Vec<Box<dyn StartProvider<[UpnpCorrespondence], 4> + Send + Sync>> {
+        if self.linear_start {
+            vec![Box::new(LinearStart)]
+        } else {
+            Vec::new()
+        }
+    }
+    fn check_data(&self, corrs: &[UpnpCorrespondence]) -> Result<(), FirstRowsError> {
+        if corrs.len() < UPNP_MIN_CORRESPONDENCES {
+            return Err(FirstRowsError::TooFew { got: corrs.len(), need: UPNP_MIN_CORRESPONDENCES });
+        }
+        for (row, c) in corrs.iter().enumerate() {
+            for (k, (field, v)) in [("p", &c.p), ("f", &c.f), ("v", &c.v)].into_iter().enumerate() {
+                if let Some(j) = v.iter().position(|x| !x.is_finite()) {
+                    return Err(FirstRowsError::NonFinite(NonFiniteParameter { row: Some(row), field, index: 9 * row + 3 * k + j }));
+                }
+            }
+        }
+        check_rays(corrs).and_then(|()| check_spread(corrs)).map_err(input_error)
+    }
+    fn tracked_params(&self, corrs: &[UpnpCorrespondence]) -> Result<SVector<f64, 66>, FirstRowsError> {
+        Ok(params_of(&upnp_system(corrs).map_err(input_error)?.m))
+    }
+    fn simulate_start(
+        &self,
+        corrs: &[UpnpCorrespondence],
+        x0: &SVector<f64, 4>,
+        _p: &SVector<f64, 66>,
+    ) -> Result<SVector<f64, 66>, SimulatorError> {
+        // The paper's geometric simulator: the points reprojected under the start's pose.
+        let pose = upnp_pose(x0, corrs).ok_or(SimulatorError::Singular)?;
+        let m = reprojected_cost(&pose.rotation, &pose.translation, corrs).map_err(|_| SimulatorError::Singular)?;
+        Ok(params_of(&m))
+    }
+    fn refine_start(&self, _corrs: &[UpnpCorrespondence], _x0: &SVector<f64, 4>) -> Refinement<4> {
+        Refinement::Unsupported
+    }
+    fn has_fallback(&self) -> bool {
+        self.fallback
+    }
+    fn fallback_candidates(&self, corrs: &[UpnpCorrespondence], _p: &SVector<f64, 66>) -> Vec<SVector<f64, 4>> {
+        upnp_system(corrs).ok().and_then(|s| global_minimum(&s)).map(|pose| SVector::from(pose.quaternion)).into_iter().collect()
+    }
+}

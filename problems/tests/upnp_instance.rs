@@ -6,6 +6,7 @@
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use simhc::pipeline::learned::NonFiniteParameter;
+use simhc::pipeline::{Attempt, Method};
 use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
 use simhc_problems::metrics::{rotation_error_deg, translation_error_pct};
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
@@ -15,6 +16,11 @@ use simhc_problems::upnp::solver::UpnpSolver;
 #[test]
 fn noise_free_scenes_are_solved_exactly() {
     let solver = UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights load");
+    // The linear start (provider 3, after the learned start's 0 and 1 and the caller's 2) is
+    // tried first: Gauss-Newton, then the learned start's; then a path from each.
+    let gn = |provider| Attempt { provider, method: Method::GaussNewton };
+    let path = |provider| Attempt { provider, method: Method::SimulatorHc };
+    assert_eq!(solver.schedule(), [gn(3), gn(0), path(3), path(0)]);
     let config = UpnpSceneConfig { noise_px: 0.0, ..UpnpSceneConfig::default() };
     for seed in 0..50u64 {
         let scene = config.sample_seeded(seed).expect("valid config");

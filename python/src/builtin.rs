@@ -4,16 +4,17 @@
 use crate::arrays::{same_count, vectors};
 use crate::errors::Failure;
 use crate::pose::Pose;
-use crate::problem::{info_dict, ransac_options};
+use crate::problem::{info_dict, ransac_options, solve_failure};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use simhc_problems::grps::ransac::GrpsEstimator;
 use simhc_problems::grps::scene::GrpsCorrespondence;
 use simhc_problems::grps::solver::{GrpsSolveError, GrpsSolver, GrpsSolverOptions};
 use simhc_problems::robust::RobustError;
+use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::ransac::UpnpEstimator;
 use simhc_problems::upnp::scene::UpnpCorrespondence;
-use simhc_problems::upnp::solver::{SolveError as UpnpSolveError, UpnpSolver};
+use simhc_problems::upnp::solver::UpnpSolver;
 use std::fmt::Display;
 use std::sync::OnceLock;
 
@@ -24,6 +25,16 @@ fn upnp_solver() -> Result<&'static UpnpSolver, Failure> {
     static SOLVER: OnceLock<Result<UpnpSolver, String>> = OnceLock::new();
     SOLVER
         .get_or_init(|| UpnpSolver::new().map_err(|e| e.to_string()))
+        .as_ref()
+        .map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))
+}
+
+/// The UPnP library solver (`simhc::solver::InstanceSolver`, the assembly of every problem),
+/// built once.
+fn upnp_library() -> Result<&'static UpnpLibrarySolver, Failure> {
+    static SOLVER: OnceLock<Result<UpnpLibrarySolver, String>> = OnceLock::new();
+    SOLVER
+        .get_or_init(|| UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| e.to_string()))
         .as_ref()
         .map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))
 }
@@ -81,14 +92,6 @@ fn noise_angle(noise: f64) -> Result<f64, Failure> {
     }
 }
 
-fn upnp_failure(e: UpnpSolveError) -> Failure {
-    match e {
-        UpnpSolveError::Input(_) => Failure::Input(e.to_string()),
-        UpnpSolveError::NotValidated(_) => Failure::NotValidated(e.to_string()),
-        _ => Failure::NoSolution(e.to_string()),
-    }
-}
-
 fn grps_failure(e: GrpsSolveError) -> Failure {
     match e {
         GrpsSolveError::Input(_) | GrpsSolveError::NoCanonicalFrame => Failure::Input(e.to_string()),
@@ -111,8 +114,10 @@ fn grps_failure(e: GrpsSolveError) -> Failure {
 #[pyo3(signature = (points, bearings, origins = None))]
 pub fn upnp(py: Python<'_>, points: &Bound<'_, PyAny>, bearings: &Bound<'_, PyAny>, origins: Option<&Bound<'_, PyAny>>) -> PyResult<Pose> {
     let corrs = upnp_correspondences(points, bearings, origins)?;
-    let solver = upnp_solver()?;
-    let pose = py.detach(|| solver.solve(&corrs)).map_err(upnp_failure)?;
+    let solver = upnp_library()?;
+    let solution = py.detach(|| solver.solve(&corrs[..])).map_err(solve_failure)?;
+    // A validated quaternion has a pose: the rays were checked before the solve.
+    let pose = upnp_pose(&solution.x, &corrs).ok_or_else(|| Failure::NoSolution("the validated rotation has no translation".into()))?;
     Pose::new(py, &pose.rotation, &pose.translation, None)
 }
 
@@ -163,7 +168,8 @@ pub fn estimate_upnp<'py>(
     let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
     let max_angle = (8.0 * noise_angle(noise)?).max(1e-6);
     let corrs = upnp_correspondences(points, bearings, origins)?;
-    let estimator = UpnpEstimator::new(upnp_solver()?.clone(), max_angle);
+    let estimator =
+        UpnpEstimator::new(upnp_solver()?.clone(), max_angle).map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
     let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
     Ok((Pose::new(py, &pose.rotation, &pose.translation, None)?, info_dict(py, &info)?))
 }

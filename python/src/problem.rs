@@ -31,7 +31,7 @@ pub trait DynSolver: Send + Sync {
     fn estimate(&self, rows: &[f64], globals: &[f64], options: &RansacOptions) -> Result<(Vec<f64>, EstimateInfo), Failure>;
 }
 
-fn solve_failure<C: std::fmt::Debug, const NX: usize>(e: SolveError<C, NX>) -> Failure {
+pub(crate) fn solve_failure<C: std::fmt::Debug, const NX: usize>(e: SolveError<C, NX>) -> Failure {
     match e {
         SolveError::Input(_) => Failure::Input(e.to_string()),
         SolveError::NotValidated { .. } => Failure::NotValidated(e.to_string()),

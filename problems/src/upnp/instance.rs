@@ -96,14 +96,10 @@ impl Validator<[UpnpCorrespondence], 4> for UpnpPoseValidator {
         }
     }
     fn verdict(&self, check: &UpnpValidation) -> Verdict {
-        if check.passes(self.max_angle, self.max_behind) {
-            Verdict::Accept
-        } else {
-            Verdict::Reject
-        }
+        check.verdict(self.max_angle, self.max_behind)
     }
     fn better(&self, a: &UpnpValidation, b: &UpnpValidation) -> bool {
-        (a.behind, a.max_angle) < (b.behind, b.max_angle)
+        a.better(b)
     }
 }
 

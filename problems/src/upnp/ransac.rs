@@ -9,18 +9,23 @@
 //! A sample has [`UpnpEstimator::sample_size`] correspondences (default 4, one more than the
 //! minimal 3). Three correspondences have up to 8 poses that explain them exactly, and one
 //! path reaches one of them, not necessarily the true one; a fourth leaves one, so every
-//! sample that is all inliers gives the truth. The solver runs without its all-roots fallback
-//! (about 1 ms, and most samples hold an outlier) and without the linear start (it needs 6
-//! correspondences): one path from the learned start, validated on the sample.
+//! sample that is all inliers gives the truth. A sample is solved by the library solver
+//! ([`super::instance::UpnpLibrarySolver`]) without its all-roots fallback (about 1 ms, and
+//! most samples hold an outlier) and without the linear start (it needs 6 correspondences):
+//! the attempts of [`UpnpEstimator::attempts`] from the learned start, validated on the
+//! sample.
 
 use super::geometry::{validate, UpnpError};
+use super::instance::{upnp_pose, UpnpLearned, UpnpLibrarySolver, UpnpProblem};
 use super::refine::{levenberg_marquardt, LmOptions};
 use super::scene::UpnpCorrespondence;
-use super::solver::{StartKind, UpnpPose, UpnpSolver, UpnpSolverOptions};
+use super::solver::{UpnpPose, UpnpSolver};
 use crate::metrics::quat_from_rotation;
 use crate::robust::{self, RobustError};
+use simhc::pipeline::{Attempt, Method};
 use simhc::ransac::{Estimator, RansacOptions};
-use simhc::solver::EstimateInfo;
+use simhc::solver::{EstimateInfo, SolverError};
+use std::sync::Arc;
 
 /// The angle (radians) between the bearing of `c` and the direction from its ray origin to its
 /// point under `pose`; `f64::INFINITY` for a point behind its ray origin or a NaN.
@@ -43,23 +48,53 @@ pub fn angular_error(pose: &UpnpPose, c: &UpnpCorrespondence) -> f64 {
 pub type UpnpEstimateError = RobustError<UpnpError>;
 
 /// The UPnP solver as a RANSAC estimator over correspondences.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct UpnpEstimator {
     /// The solver of a sample (module docs: learned start only, no fallback).
-    pub solver: UpnpSolver,
+    pub solver: Arc<UpnpLibrarySolver>,
+    /// The attempts on a sample, over the solver's providers (0: the learned start).
+    pub attempts: Vec<Attempt>,
     /// Correspondences per sample (at least 3).
     pub sample_size: usize,
     /// Settings of the local optimization on the inliers.
     pub refine: LmOptions,
 }
 
+impl std::fmt::Debug for UpnpEstimator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("UpnpEstimator")
+            .field("problem", self.solver.problem())
+            .field("attempts", &self.attempts)
+            .field("sample_size", &self.sample_size)
+            .field("refine", &self.refine)
+            .finish()
+    }
+}
+
+/// The attempts on a sample: Gauss-Newton from the learned start, nothing more. Why no path
+/// after it: most samples hold an outlier and no attempt validates them, so a path after a
+/// failed Gauss-Newton mostly costs its 20 us for nothing, and among the many samples one that
+/// is all inliers and in Gauss-Newton's basin comes soon. Measured with `simhc ransac upnp
+/// --threshold 0.00375 --trials 30 --rows 100 --noise 1 --seed 1` (2026-12-04, BENCHMARKS.md):
+/// one path per sample 18.8-29.4 ms per call, Gauss-Newton then a path 28.4-33.4 ms,
+/// Gauss-Newton alone 7.5-9.5 ms, all at 100 % success and recall.
+pub const SAMPLE_ATTEMPTS: [Attempt; 1] = [Attempt { provider: 0, method: Method::GaussNewton }];
+
 impl UpnpEstimator {
-    /// An estimator whose samples are solved by `solver`'s network with the sample options of
-    /// the module docs; samples of 4 correspondences. `max_angle` is how far a sample's pose may
-    /// miss its own correspondences (radians), as [`UpnpSolverOptions::max_angle`].
-    pub fn new(solver: UpnpSolver, max_angle: f64) -> Self {
-        let options = UpnpSolverOptions { max_angle, ..UpnpSolverOptions::single_path(StartKind::Regressor) };
-        Self { solver: solver.with_options(options), sample_size: 4, refine: LmOptions { max_iterations: 20, ..LmOptions::default() } }
+    /// An estimator whose samples are solved from `solver`'s network with the attempts of
+    /// [`SAMPLE_ATTEMPTS`]; samples of 4 correspondences. `max_angle` is how far a sample's
+    /// pose may miss its own correspondences (radians), as [`UpnpProblem::max_angle`]. An
+    /// error when the network does not have UPnP's input rows and outputs.
+    pub fn new(solver: UpnpSolver, max_angle: f64) -> Result<Self, SolverError> {
+        let problem = Arc::new(UpnpProblem { max_angle, max_behind: 0, linear_start: false, fallback: false });
+        let learned = UpnpLearned::new(solver.network().clone())?;
+        let solver = UpnpLibrarySolver::with_learned(problem, learned, 0.0)?;
+        Ok(Self {
+            solver: Arc::new(solver),
+            attempts: SAMPLE_ATTEMPTS.to_vec(),
+            sample_size: 4,
+            refine: LmOptions { max_iterations: 20, ..LmOptions::default() },
+        })
     }
 
     /// A robust estimate from `corrs` (any number, at least a sample): LO-RANSAC with
@@ -81,8 +116,8 @@ impl Estimator for UpnpEstimator {
     fn solve(&self, data: &[UpnpCorrespondence], indices: &[usize], out: &mut Vec<UpnpPose>) {
         let sample: Vec<UpnpCorrespondence> = indices.iter().map(|&i| data[i]).collect();
         // A sample that does not validate holds an outlier or missed its basin: dropped.
-        if let Ok(pose) = self.solver.solve(&sample) {
-            out.push(pose);
+        if let Ok(s) = self.solver.run_pipeline(&sample[..], &self.attempts, false, None) {
+            out.extend(upnp_pose(&s.x, &sample));
         }
     }
 
@@ -127,7 +162,7 @@ mod tests {
     #[test]
     fn the_estimate_keeps_the_inliers_at_40_percent_outliers() {
         let (scene, inlier) = scene_with_outliers(7, 100, 0.4);
-        let estimator = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6);
+        let estimator = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6).unwrap();
         let options = RansacOptions { max_iterations: 300, ..RansacOptions::poselib(1e-4) };
         let (pose, info) = estimator.estimate(&scene.correspondences, &options).unwrap();
         let er = rotation_error_deg(&pose.rotation, &scene.rotation);
@@ -143,7 +178,7 @@ mod tests {
     #[test]
     fn bad_input_names_the_correspondence() {
         let (mut scene, _) = scene_with_outliers(8, 20, 0.0);
-        let estimator = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6);
+        let estimator = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6).unwrap();
         let options = RansacOptions::poselib(1e-4);
         scene.correspondences[13].f.y = f64::NAN;
         assert_eq!(estimator.estimate(&scene.correspondences, &options).unwrap_err(), UpnpError::NonFinite { index: 13 }.into());

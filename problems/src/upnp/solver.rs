@@ -112,9 +112,19 @@ impl UpnpValidation {
         self.behind <= max_behind && self.max_angle <= max_angle
     }
 
-    /// Ordering of end points that do not pass: fewer points behind first, then the residual.
-    fn key(&self) -> (usize, f64) {
-        (self.behind, self.max_angle)
+    /// [`UpnpValidation::passes`] as the pipeline's verdict.
+    pub fn verdict(&self, max_angle: f64, max_behind: usize) -> Verdict {
+        if self.passes(max_angle, max_behind) {
+            Verdict::Accept
+        } else {
+            Verdict::Reject
+        }
+    }
+
+    /// Whether `self` explains the data better than `other` (ranks end points that do not
+    /// pass): fewer points behind first, then the residual.
+    pub fn better(&self, other: &Self) -> bool {
+        (self.behind, self.max_angle) < (other.behind, other.max_angle)
     }
 }
 
@@ -234,6 +244,11 @@ impl UpnpSolver {
     /// The solver with a given network (input rows of width [`UPNP_ROW_WIDTH`], 4 outputs).
     pub fn with_network(network: FoldedNetwork) -> Self {
         Self { network, options: UpnpSolverOptions::default() }
+    }
+
+    /// The network of the learned start.
+    pub fn network(&self) -> &FoldedNetwork {
+        &self.network
     }
 
     /// The same solver with other options.
@@ -425,14 +440,10 @@ impl Validator<UpnpInstance<'_>, 4> for UpnpValidator {
         }
     }
     fn verdict(&self, check: &UpnpValidation) -> Verdict {
-        if check.passes(self.max_angle, self.max_behind) {
-            Verdict::Accept
-        } else {
-            Verdict::Reject
-        }
+        check.verdict(self.max_angle, self.max_behind)
     }
     fn better(&self, a: &UpnpValidation, b: &UpnpValidation) -> bool {
-        a.key() < b.key()
+        a.better(b)
     }
 }
 

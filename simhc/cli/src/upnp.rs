@@ -306,7 +306,7 @@ pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<Vec<crate::ransac::Ransac
         }
         None => UpnpSolver::new().map_err(|e| e.to_string())?,
     };
-    let estimator = UpnpEstimator::new(solver, (8.0 * a.noise / scenes.focal_px).max(1e-6));
+    let estimator = UpnpEstimator::new(solver, (8.0 * a.noise / scenes.focal_px).max(1e-6)).map_err(|e| e.to_string())?;
     crate::ransac::rows_of(a, |rng, ratio, seed| {
         let mut scene = scenes.sample(rng).map_err(|e| e.to_string())?;
         let inlier = crate::ransac::draw_inliers(rng, a.rows, ratio);

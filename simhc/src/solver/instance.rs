@@ -31,6 +31,11 @@ use std::sync::Arc;
 ///
 /// `NX, NF, NP, NC` are the sizes of the tracked system. Every method sees the data as the
 /// pipeline does: in the canonical frame when [`InstanceProblem::canonical`] makes one.
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` is not a problem a solver takes for data `{D}` with these sizes",
+    label = "no `InstanceProblem<{NX}, {NF}, {NP}, {NC}, {D}>`",
+    note = "a row-wise problem implements `simhc::solver::DeclaredProblem<NX, NF, NP, NC, ND>` (its data is then `SVector<f64, ND>`); other data implements `simhc::solver::InstanceProblem` directly"
+)]
 pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, const NC: usize, D: ?Sized>: 'static {
     /// The system of the homotopy paths.
     type Tracked: CoefficientForm<NX, NF, NP, NC> + ParamDerivative<NX, NF, NP> + ProblemLayout;

@@ -281,6 +281,12 @@ where
     /// [`InstanceSolver::with_weights`] for a problem shared with other holders.
     pub fn with_shared(problem: Arc<S>, weights: &[u8], noise: f64) -> Result<Self, SolverError> {
         let learned = S::learned(&problem, weights)?;
+        Self::with_learned(problem, learned, noise)
+    }
+
+    /// The solver of `problem` with a learned start already built (one network shared by
+    /// several solvers, or a start that is not a network).
+    pub fn with_learned(problem: Arc<S>, learned: S::Learned, noise: f64) -> Result<Self, SolverError> {
         let validator = problem.make_validator(noise);
         let (other_starts, other_simulators) = (problem.extra_starts(), problem.extra_simulators());
         let restarts = problem.restarts();

@@ -73,28 +73,53 @@ fn bad_input_names_the_correspondence_and_field() {
     assert_eq!(input(&scene.correspondences[..2]), FirstRowsError::TooFew { got: 2, need: 3 });
     assert_eq!(input(&[]), FirstRowsError::TooFew { got: 0, need: 3 });
 
-    let mut nan = scene.correspondences.clone();
-    nan[4].f.y = f64::NAN;
-    let e = input(&nan);
-    assert_eq!(e, FirstRowsError::NonFinite(NonFiniteParameter { row: Some(4), field: "f", index: 9 * 4 + 3 + 1 }));
-    assert!(e.to_string().contains("row 4, field `f`"), "{e}");
+    // Each field of a correspondence, at its place in the row `[p, f, v]`.
+    for (field, k) in [("p", 0), ("f", 1), ("v", 2)] {
+        let mut nan = scene.correspondences.clone();
+        let c = &mut nan[4];
+        [&mut c.p, &mut c.f, &mut c.v][k].y = f64::NAN;
+        let e = input(&nan);
+        assert_eq!(e, FirstRowsError::NonFinite(NonFiniteParameter { row: Some(4), field, index: 9 * 4 + 3 * k + 1 }));
+        assert!(e.to_string().contains(&format!("row 4, field `{field}`")), "{e}");
+    }
 
+    let reason = |e: FirstRowsError| match e {
+        FirstRowsError::Degenerate(DegenerateInput { row, reason }) => (row, reason),
+        other => panic!("not degenerate: {other:?}"),
+    };
     let mut zero = scene.correspondences.clone();
     zero[2].f = Vector3::zeros();
-    assert!(matches!(input(&zero), FirstRowsError::Degenerate(DegenerateInput { row: Some(2), .. })));
+    let (row, why) = reason(input(&zero));
+    assert_eq!(row, Some(2));
+    assert!(why.contains("bearing `f`"), "{why}");
 
     // World points on one line leave the rotation about it free.
     let mut line = scene.correspondences.clone();
     for (i, c) in line.iter_mut().enumerate() {
         c.p = Vector3::new(1.0, 2.0, 3.0) * i as f64;
     }
-    assert!(matches!(input(&line), FirstRowsError::Degenerate(DegenerateInput { row: None, .. })));
+    let (row, why) = reason(input(&line));
+    assert!(row.is_none() && why.contains("one line"), "{why}");
     // All bearings parallel from one centre: the translation along them is free.
     let mut parallel = scene.correspondences.clone();
     for c in &mut parallel {
         (c.f, c.v) = (Vector3::z(), Vector3::zeros());
     }
-    assert!(matches!(input(&parallel), FirstRowsError::Degenerate(DegenerateInput { row: None, .. })));
+    let (row, why) = reason(input(&parallel));
+    assert!(row.is_none() && why.contains("parallel"), "{why}");
+}
+
+/// The estimator's samples need UPnP's network: another shape is a typed error, not a panic.
+#[test]
+fn an_estimator_with_a_network_of_another_shape_is_an_error() {
+    use simhc::regressor::{DenseLayer, FoldedNetwork};
+    use simhc_problems::upnp::ransac::UpnpEstimator;
+    let point = DenseLayer::new(12, 1, vec![0.0; 12], vec![0.0]).expect("layer");
+    let head = DenseLayer::new(1, 4, vec![0.0; 4], vec![1.0, 0.0, 0.0, 0.0]).expect("layer");
+    let network = FoldedNetwork::new(12, vec![point], vec![head], true).expect("network");
+    let e = UpnpEstimator::new(UpnpSolver::with_network(network), 0.01).expect_err("rows of 12, not 9");
+    assert!(e.to_string().contains("input width"), "{e}");
+    assert!(UpnpEstimator::new(UpnpSolver::new().expect("shipped"), 0.01).is_ok());
 }
 
 /// Without the linear start and the fallback, the learned start alone: still at least 95 % on

@@ -1,9 +1,10 @@
 //! UPnP through the runtime's problem trait: [`UpnpProblem`] implements
 //! [`simhc::solver::InstanceProblem`] for any number of correspondences
 //! (`D = [UpnpCorrespondence]`), so the library solver, [`simhc::solver::InstanceSolver`],
-//! solves generalized absolute pose with the same assembly as every declared problem (the
-//! learned start's Gauss-Newton, the other starts, one path each, the all-roots fallback,
-//! validation on all correspondences):
+//! solves generalized absolute pose with the same assembly as every declared problem
+//! (Gauss-Newton from each start, then one path from each, then the all-roots fallback, each
+//! end point validated on all correspondences; UPnP puts its linear start before the learned
+//! one, [`InstanceProblem::other_starts_first`]):
 //!
 //! ```no_run
 //! use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};
@@ -150,8 +151,10 @@ fn input_error(e: UpnpError) -> FirstRowsError {
     let degenerate = |row, reason| FirstRowsError::Degenerate(DegenerateInput { row, reason });
     match e {
         UpnpError::TooFewCorrespondences { got, need } => FirstRowsError::TooFew { got, need },
-        // `check_data` names the field before `validate` can say this.
-        UpnpError::NonFinite { index } => FirstRowsError::NonFinite(NonFiniteParameter { row: Some(index), field: "?", index }),
+        // Not reached from a solve: `check_data` names the field first.
+        UpnpError::NonFinite { index } => {
+            FirstRowsError::NonFinite(NonFiniteParameter { row: Some(index), field: "p, f or v", index: 9 * index })
+        }
         UpnpError::ZeroBearing { index } => degenerate(Some(index), "zero-length bearing `f`"),
         UpnpError::Degenerate => degenerate(None, "all bearings parallel: the translation is not determined"),
         UpnpError::CollinearPoints => degenerate(None, "all world points on one line: the rotation about it is not determined"),

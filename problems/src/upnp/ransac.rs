@@ -1,19 +1,19 @@
-//! UPnP inside RANSAC: the Simulator HC solver on samples of a few correspondences as the
-//! minimal solver of [`simhc::ransac::ransac`], the angle between a bearing and the direction
-//! to its point as the per-correspondence error, and Levenberg-Marquardt on the inliers
-//! ([`super::refine::levenberg_marquardt`]) as the local optimization. The shape is PoseLib's
-//! `estimate_generalized_absolute_pose`: correspondences with outliers in, `(pose, info)` out.
+//! UPnP inside RANSAC: the UPnP library solver ([`super::instance::UpnpLibrarySolver`]) on
+//! samples of a few correspondences as the minimal solver of [`simhc::ransac::ransac`], the
+//! angle between a bearing and the direction to its point as the per-correspondence error, and
+//! Levenberg-Marquardt on the inliers ([`super::refine::levenberg_marquardt`]) as the local
+//! optimization. The shape is PoseLib's `estimate_generalized_absolute_pose`: correspondences
+//! with outliers in, `(pose, info)` out.
 //!
 //! # Samples
 //!
 //! A sample has [`UpnpEstimator::sample_size`] correspondences (default 4, one more than the
-//! minimal 3). Three correspondences have up to 8 poses that explain them exactly, and one
-//! path reaches one of them, not necessarily the true one; a fourth leaves one, so every
-//! sample that is all inliers gives the truth. A sample is solved by the library solver
-//! ([`super::instance::UpnpLibrarySolver`]) without its all-roots fallback (about 1 ms, and
-//! most samples hold an outlier) and without the linear start (it needs 6 correspondences):
-//! the attempts of [`UpnpEstimator::attempts`] from the learned start, validated on the
-//! sample.
+//! minimal 3). Three correspondences have up to 8 poses that explain them exactly, and a start
+//! near one of them reaches it, not necessarily the true one; a fourth leaves one, so every
+//! sample that is all inliers and near the truth gives it. A sample is solved by the attempts
+//! of [`SAMPLE_ATTEMPTS`] (Gauss-Newton from the learned start), without the all-roots
+//! fallback (about 1 ms, and most samples hold an outlier) and without the linear start (it
+//! needs 6 correspondences), validated on the sample.
 
 use super::geometry::{validate, UpnpError};
 use super::instance::{upnp_pose, UpnpLearned, UpnpLibrarySolver, UpnpProblem};

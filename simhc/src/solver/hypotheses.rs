@@ -110,7 +110,7 @@ pub fn ranked_schedule(base: &[Attempt], hypotheses: usize) -> Vec<Attempt> {
 /// reused address, a stack slot in a loop, would get the old hypotheses).
 pub struct RankedStarts<'a, L, const NX: usize> {
     learned: &'a L,
-    ranked: RefCell<Option<(*const u8, Result<Ranked<NX>, StartError>)>>,
+    ranked: RefCell<Option<(DatumKey, Result<Ranked<NX>, StartError>)>>,
 }
 
 impl<'a, L, const NX: usize> RankedStarts<'a, L, NX> {
@@ -132,7 +132,7 @@ impl<'a, L, const NX: usize> RankedStarts<'a, L, NX> {
     where
         L: LearnedHypotheses<D, NX>,
     {
-        let key = data as *const D as *const u8;
+        let key: DatumKey = (data as *const D as *const u8, std::mem::size_of_val(data));
         let mut cache = self.ranked.borrow_mut();
         if !matches!(&*cache, Some((k, _)) if *k == key) {
             *cache = Some((key, self.learned.rank(data)));
@@ -145,6 +145,9 @@ impl<'a, L, const NX: usize> RankedStarts<'a, L, NX> {
         }
     }
 }
+
+/// Where a datum is and how many bytes it spans (a slice and its prefix differ).
+type DatumKey = (*const u8, usize);
 
 /// The hypothesis of one rank, as a start provider.
 pub struct RankedStart<'h, 'a, L, const NX: usize> {
@@ -188,6 +191,15 @@ mod tests {
         assert!(!seen.contains(&2), "slot 2 is the caller's");
         assert_eq!(other_provider(1, 0), 3, "after slot 2");
         assert_eq!(other_provider(3, 1), provider_count(3) + 1);
+    }
+
+    #[test]
+    fn other_starts_first_without_other_starts_keeps_the_schedule() {
+        let base = super::super::shipped_schedule(true);
+        let plain = solver_schedule(base, 3, 0, 1, 4);
+        let mut first = plain.clone();
+        other_starts_first(&mut first, 3, 0, 4);
+        assert_eq!(first, plain);
     }
 
     #[test]

@@ -29,8 +29,10 @@ use std::sync::Arc;
 
 /// A problem a [`super::Solver`] solves, for data of type `D` (the [module docs](self)).
 ///
-/// `NX, NF, NP, NC` are the sizes of the tracked system. Every method sees the data as the
-/// pipeline does: in the canonical frame when [`InstanceProblem::canonical`] makes one.
+/// `NX, NF, NP, NC` are the sizes of the tracked system. [`InstanceProblem::check_data`] and
+/// [`InstanceProblem::canonical`] see the user's data; the other methods see it as the
+/// pipeline does, in the canonical frame when [`InstanceProblem::canonical`] makes one (the
+/// validator also checks the final solution on the user's data).
 #[diagnostic::on_unimplemented(
     message = "`{Self}` is not a problem a solver takes for data `{D}` with these sizes",
     label = "no `InstanceProblem<{NX}, {NF}, {NP}, {NC}, {D}>`",

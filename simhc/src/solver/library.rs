@@ -192,11 +192,11 @@ pub enum SolverError {
     TooMany {
         /// The problem's name.
         problem: &'static str,
-        /// `"other starts"`, `"other simulators"` or `"restarts"`.
+        /// `"learned hypotheses"`, `"other starts"`, `"other simulators"` or `"restarts"`.
         what: &'static str,
         /// How many it brings.
         count: usize,
-        /// How many a solver takes ([`MAX_OTHERS`], [`MAX_RESTARTS`]).
+        /// How many a solver takes ([`MAX_HYPOTHESES`], [`MAX_OTHERS`], [`MAX_RESTARTS`]).
         most: usize,
     },
     /// The problem ships no weights and none were given.
@@ -290,8 +290,13 @@ where
         let validator = problem.make_validator(noise);
         let (other_starts, other_simulators) = (problem.extra_starts(), problem.extra_simulators());
         let restarts = problem.restarts();
-        let counts = [("other starts", other_starts.len(), MAX_OTHERS), ("other simulators", other_simulators.len(), MAX_OTHERS)];
-        for (what, count, most) in counts.into_iter().chain([("restarts", restarts, MAX_RESTARTS)]) {
+        let counts = [
+            ("learned hypotheses", learned.hypotheses(), MAX_HYPOTHESES),
+            ("other starts", other_starts.len(), MAX_OTHERS),
+            ("other simulators", other_simulators.len(), MAX_OTHERS),
+            ("restarts", restarts, MAX_RESTARTS),
+        ];
+        for (what, count, most) in counts {
             if count > most {
                 return Err(SolverError::TooMany { problem: problem.name(), what, count, most });
             }

@@ -5,6 +5,7 @@ use nalgebra::Matrix3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
+use simhc::pipeline::Origin;
 use simhc::solver::SolveError as LibraryError;
 use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, rotation_from_quat, translation_error_pct};
 use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
@@ -265,29 +266,39 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
 }
 
 /// `simhc solve upnp --input F`: the pose of the correspondences in a JSON file
-/// (`{"correspondences": [{"p": [..], "f": [..], "v": [..]}, ..]}`, or a bare array of them).
+/// (`{"correspondences": [{"p": [..], "f": [..], "v": [..]}, ..]}`, or a bare array of them),
+/// by the UPnP library solver ([`UpnpLibrarySolver`]).
 pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
+    use simhc::solver::hypotheses::other_provider;
     let corrs: Vec<UpnpCorrespondence> = simhc_problems::input::parse_correspondences(text).map_err(|e| e.to_string())?;
-    let solver = UpnpSolver::new().map_err(|e| format!("loading the shipped regressor: {e}"))?;
+    let solver = UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| format!("loading the shipped regressor: {e}"))?;
     // A pose that did not validate is printed with `"validated": false`, never as a plain pose.
-    let (report, validated) = match solver.solve_report(&corrs) {
-        Ok(r) => (r, true),
-        Err(SolveError::NotValidated(r)) => (*r, false),
+    let (x, origin, attempts, check, validated) = match solver.solve(&corrs[..]) {
+        Ok(s) => (s.x, Some(s.origin), s.attempts, s.check, true),
+        Err(LibraryError::NotValidated { best, check, attempts }) => (best, None, attempts, check, false),
         Err(e) => return Err(e.to_string()),
     };
-    let r = report.pose.rotation;
+    let pose = upnp_pose(&x, &corrs).ok_or("the end point has no pose (a zero quaternion)")?;
+    let (start, method) = match origin {
+        Some(Origin::Path { provider, method }) => {
+            let start = if provider == other_provider(1, 0) { "linear" } else { "learned" };
+            (start, format!("{method:?}"))
+        }
+        Some(Origin::Fallback { .. }) => ("all roots", "AllRoots".to_string()),
+        None => ("none validated", "-".to_string()),
+    };
+    let r = pose.rotation;
     Ok(serde_json::json!({
         "rotation": [[r[(0, 0)], r[(0, 1)], r[(0, 2)]], [r[(1, 0)], r[(1, 1)], r[(1, 2)]], [r[(2, 0)], r[(2, 1)], r[(2, 2)]]],
-        "translation": [report.pose.translation.x, report.pose.translation.y, report.pose.translation.z],
-        "quaternion_wxyz": quat_from_rotation(&r),
+        "translation": [pose.translation.x, pose.translation.y, pose.translation.z],
+        "quaternion_wxyz": pose.quaternion,
         "convention": "alpha_i f_i + v_i = R p_i + t",
         "validated": validated,
-        "max_angular_residual": report.validation.max_angle,
-        "behind_ray_origin": report.validation.behind,
-        "start": format!("{:?}", report.start_kind),
-        "method": format!("{:?}", report.method),
-        "attempts": report.attempts,
-        "track": {"accepted_steps": report.stats.accepted_steps, "rejected_steps": report.stats.rejected_steps, "newton_iterations": report.stats.newton_iterations},
+        "max_angular_residual": check.max_angle,
+        "behind_ray_origin": check.behind,
+        "start": start,
+        "method": method,
+        "attempts": attempts,
     }))
 }
 

@@ -44,6 +44,12 @@ fn solve_upnp_reports_a_validated_pose() {
     assert!(ok, "stderr: {err}");
     let doc: serde_json::Value = serde_json::from_str(&out).expect("JSON output");
     assert_eq!(doc["validated"], serde_json::Value::Bool(true), "{out}");
+    // Noise-free: the library solver's first attempt, Gauss-Newton from the linear start.
+    assert_eq!(
+        (doc["start"].as_str(), doc["method"].as_str(), doc["attempts"].as_u64()),
+        (Some("linear"), Some("GaussNewton"), Some(1)),
+        "{out}"
+    );
     let t: Vec<f64> = doc["translation"].as_array().expect("translation").iter().map(|x| x.as_f64().expect("number")).collect();
     for (k, want) in [0.1, -0.2, 0.3].into_iter().enumerate() {
         assert!((t[k] - want).abs() < 1e-8, "translation {t:?}");

@@ -231,6 +231,12 @@ pub fn upnp_cost_matrix(corrs: &[UpnpCorrespondence]) -> Result<SMatrix<f64, 11,
 pub fn translation_from_rotation(r: &Matrix3<f64>, corrs: &[UpnpCorrespondence]) -> Result<Vector3<f64>, UpnpError> {
     validate(corrs)?;
     check_pose(r, &Vector3::zeros())?;
+    checked_translation(r, corrs)
+}
+
+/// [`translation_from_rotation`] for correspondences already checked ([`validate`]): what a
+/// validator calls on every end point of a solve, without checking the data again.
+pub fn checked_translation(r: &Matrix3<f64>, corrs: &[UpnpCorrespondence]) -> Result<Vector3<f64>, UpnpError> {
     let mut h = Matrix3::<f64>::zeros();
     let mut b = Vector3::<f64>::zeros();
     for c in corrs {

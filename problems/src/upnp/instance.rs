@@ -25,7 +25,7 @@
 //! ([`upnp_pose`]); the unknowns are the quaternion `[w, x, y, z]`.
 
 use super::features::{UPNP_OUTPUTS, UPNP_ROW_WIDTH};
-use super::geometry::{check_rays, check_spread, translation_from_rotation, upnp_system, UpnpError, UPNP_MIN_CORRESPONDENCES};
+use super::geometry::{check_rays, check_spread, checked_translation, upnp_system, validate, UpnpError, UPNP_MIN_CORRESPONDENCES};
 use super::linear::linear_rotation;
 use super::scene::UpnpCorrespondence;
 use super::solver::{global_minimum, reprojected_cost, UpnpPose, UpnpValidation, UPNP_WEIGHTS};
@@ -66,15 +66,22 @@ impl Default for UpnpProblem {
 }
 
 /// The pose of a quaternion with the least-squares translation of its rotation (`None` for
-/// a zero or non-finite quaternion, or degenerate rays).
+/// a zero or non-finite quaternion, or correspondences that are not valid input).
 pub fn upnp_pose(x: &SVector<f64, 4>, corrs: &[UpnpCorrespondence]) -> Option<UpnpPose> {
+    validate(corrs).ok()?;
+    checked_pose(x, corrs)
+}
+
+/// [`upnp_pose`] of correspondences already checked (inside a solve, after
+/// [`InstanceProblem::check_data`]): the validator's and the simulator's, on every attempt.
+fn checked_pose(x: &SVector<f64, 4>, corrs: &[UpnpCorrespondence]) -> Option<UpnpPose> {
     let n = x.norm();
     if !(n > 0.0 && n.is_finite()) {
         return None;
     }
     let q = [x[0] / n, x[1] / n, x[2] / n, x[3] / n];
     let rotation = rotation_from_quat(q);
-    let translation = translation_from_rotation(&rotation, corrs).ok()?;
+    let translation = checked_translation(&rotation, corrs).ok()?;
     Some(UpnpPose { rotation, translation, quaternion: q })
 }
 
@@ -91,7 +98,7 @@ pub struct UpnpPoseValidator {
 impl Validator<[UpnpCorrespondence], 4> for UpnpPoseValidator {
     type Check = UpnpValidation;
     fn check(&self, corrs: &[UpnpCorrespondence], x: &SVector<f64, 4>) -> UpnpValidation {
-        match upnp_pose(x, corrs) {
+        match checked_pose(x, corrs) {
             Some(pose) => UpnpValidation::of(&pose, corrs),
             None => UpnpValidation { max_angle: f64::INFINITY, behind: corrs.len() },
         }
@@ -218,7 +225,7 @@ impl InstanceProblem<4, 5, 66, 35, [UpnpCorrespondence]> for UpnpProblem {
         _p: &SVector<f64, 66>,
     ) -> Result<SVector<f64, 66>, SimulatorError> {
         // The paper's geometric simulator: the points reprojected under the start's pose.
-        let pose = upnp_pose(x0, corrs).ok_or(SimulatorError::Singular)?;
+        let pose = checked_pose(x0, corrs).ok_or(SimulatorError::Singular)?;
         let m = reprojected_cost(&pose.rotation, &pose.translation, corrs).map_err(|_| SimulatorError::Singular)?;
         Ok(params_of(&m))
     }

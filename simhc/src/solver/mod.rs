@@ -35,7 +35,7 @@ pub use library::{
     sample_schedule, shipped_schedule, InstanceOutcome, InstanceSolver, Outcome, ProblemOutputs, ProblemRows, Solution, SolveError, Solver,
     SolverError, MAX_OTHERS,
 };
-pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, RandomStart, Refined};
+pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, RandomStart};
 pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, UnknownsMap};
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
-pub use subsystem::{AllRoots, AllRootsFallback, SquareSubsystem};
+pub use subsystem::{AllRoots, SquareSubsystem};

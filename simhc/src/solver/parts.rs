@@ -1,8 +1,9 @@
 //! The parts a solve is assembled from: the tracked parameters of the data ([`FirstRows`]),
-//! random starts for any layout ([`RandomStart`]), a learned start refined on all rows
-//! ([`Refined`]) and a problem's canonical frame as the pipeline's ([`Canon`]).
+//! random starts for any layout ([`RandomStart`]) and a problem's canonical frame as the
+//! pipeline's ([`Canon`]); the learned start refined on all rows is
+//! [`super::instance::RefinedStart`].
 
-use super::problem::{CanonicalFrame, DeclaredProblem, Refinement};
+use super::problem::{CanonicalFrame, DeclaredProblem};
 use crate::layout::{FieldKind, Layout};
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{Canonicalize, StartError, StartProvider, TargetParameters};
@@ -135,30 +136,5 @@ impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for RandomStart {
             return Err(StartError { provider: "random", reason: "a random field of zero norm".into() });
         }
         Ok(x)
-    }
-}
-
-/// The start of `inner`, refined by [`DeclaredProblem::refine`] (an error when that fails).
-pub struct Refined<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
-    pub inner: &'a dyn StartProvider<SVector<f64, ND>, NX>,
-    pub problem: &'a S,
-}
-
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> StartProvider<SVector<f64, ND>, NX>
-    for Refined<'_, S, NX, NF, NP, NC, ND>
-where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-{
-    fn name(&self) -> &'static str {
-        "learned, refined on all rows"
-    }
-    fn start(&self, p: &SVector<f64, ND>) -> Result<SVector<f64, NX>, StartError> {
-        let x0 = self.inner.start(p)?;
-        let fail = |reason: &str| StartError { provider: "refined", reason: reason.to_string() };
-        match self.problem.refine(p, &x0) {
-            Refinement::Converged(x) => Ok(x),
-            Refinement::Failed => Err(fail("Gauss-Newton on all rows did not converge")),
-            Refinement::Unsupported => Err(fail("the problem has no refinement on all rows")),
-        }
     }
 }

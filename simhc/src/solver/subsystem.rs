@@ -1,11 +1,10 @@
 //! All roots of a declared problem: the [`AllRoots`] hook, its implementation on a square
-//! subsystem with a start system from monodromy ([`SquareSubsystem`]), and the pipeline's
-//! fallback over it ([`AllRootsFallback`]).
+//! subsystem with a start system from monodromy ([`SquareSubsystem`]); the pipeline's fallback
+//! over it is [`super::instance::InstanceProblem::fallback_candidates`] of the blanket impl.
 
 use crate::all_roots::{solve_all_fast, AllRootsOptions, StartSystem};
 use crate::layout::{FieldKind, Layout};
 use crate::monodromy::SignFlip;
-use crate::pipeline::Fallback;
 use crate::start_system::{run_monodromy, MonodromyConfig, MonodromyReport, StartSystemError, StartSystemFile};
 use crate::{CoefficientForm, ParamDerivative, ProblemInfo, ProblemLayout};
 use nalgebra::SVector;
@@ -76,14 +75,5 @@ where
             Q::NAME
         );
         run_monodromy::<Q, NX, NQ>(config, quaternion_symmetry(&layout), &description, self.expected)
-    }
-}
-
-/// A problem's [`AllRoots`] as the pipeline's [`Fallback`].
-pub struct AllRootsFallback<'a, const NX: usize, const ND: usize>(pub &'a dyn AllRoots<NX, ND>);
-
-impl<const NX: usize, const NP: usize, const ND: usize> Fallback<SVector<f64, ND>, NX, NP> for AllRootsFallback<'_, NX, ND> {
-    fn candidates(&self, data: &SVector<f64, ND>, _p: &SVector<f64, NP>) -> Vec<SVector<f64, NX>> {
-        self.0.candidates(data)
     }
 }

@@ -1,8 +1,9 @@
-//! The UPnP library solver allocates nothing on its common path: a solve that Gauss-Newton
-//! from the linear start validates (the check, the cost matrix, the linear start, Gauss-Newton
-//! and the validation are all fixed-size). The learned start (its input rows), the simulator
-//! (the reprojected correspondences) and the fallback allocate; they run only when that
-//! attempt fails.
+//! The UPnP library solver allocates nothing on its common paths: a solve that Gauss-Newton
+//! from the linear start or from the learned start validates (the check, the cost matrix, the
+//! starts, with the learned start's input rows on the stack up to 32 correspondences,
+//! Gauss-Newton and the validation are all fixed-size), and a RANSAC sample, validated or not.
+//! The simulator (the reprojected correspondences) and the fallback allocate; they run only
+//! when those attempts fail.
 
 #[path = "../../simhc/tests/counting_alloc/mod.rs"]
 mod counting_alloc;
@@ -30,8 +31,49 @@ fn a_solve_validated_by_the_linear_start_allocates_nothing() {
     println!("seeds 2000..2050: {common} validated by Gauss-Newton from the linear start");
     assert!(common >= 45, "the common path is the linear start's Gauss-Newton: {common}/50");
     assert_eq!(allocations, 0, "allocations over {common} solves on the common path");
-    // The counter is armed: a solve that needs the learned start allocates its rows.
+    // The learned start's Gauss-Newton allocates nothing either.
     let learned_only = UpnpLibrarySolver::new(UpnpProblem { linear_start: false, ..UpnpProblem::default() }).expect("weights");
-    let (result, n) = counted(|| learned_only.solve(&scenes[0][..]));
-    assert!(result.is_ok() && n > 0, "{n} allocations from the learned start");
+    let learned_gn = Origin::Path { provider: 0, method: Method::GaussNewton };
+    let (mut learned, mut learned_allocations) = (0, 0);
+    for corrs in &scenes {
+        let (result, n) = counted(|| learned_only.solve(&corrs[..]));
+        if result.is_ok_and(|s| s.origin == learned_gn) {
+            learned += 1;
+            learned_allocations += n;
+        }
+    }
+    assert!(learned >= 20, "the learned start's Gauss-Newton validated {learned}/50");
+    assert_eq!(learned_allocations, 0, "allocations over {learned} solves from the learned start");
+    // The counter is armed: the all-roots fallback allocates its candidates.
+    let (result, n) = counted(|| solver.run_pipeline(&scenes[0][..], &[], true, None));
+    assert!(result.is_ok() && n > 0, "{n} allocations from the fallback");
+}
+
+/// RANSAC samples (4 correspondences, a quarter of them wrong matches) allocate nothing,
+/// whether they validate or not.
+#[test]
+fn a_ransac_sample_allocates_nothing() {
+    use rand::{Rng, SeedableRng};
+    use simhc::ransac::Estimator;
+    use simhc_problems::upnp::ransac::UpnpEstimator;
+    use simhc_problems::upnp::solver::UpnpSolver;
+    let estimator = UpnpEstimator::new(UpnpSolver::new().expect("weights"), 0.01).expect("UPnP network");
+    let config = UpnpSceneConfig { points: 100, noise_px: 1.0, ..UpnpSceneConfig::default() };
+    let mut scene = config.sample_seeded(7).expect("valid config").correspondences;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for c in scene.iter_mut().step_by(4) {
+        c.p.x += rng.random_range(2.0..4.0);
+    }
+    let mut out = Vec::with_capacity(8);
+    let (mut kept, mut allocations) = (0, 0);
+    for _ in 0..200 {
+        let sample: Vec<usize> = rand::seq::index::sample(&mut rng, scene.len(), 4).into_vec();
+        out.clear();
+        let ((), n) = counted(|| estimator.solve(&scene, &sample, &mut out));
+        kept += out.len();
+        allocations += n;
+    }
+    println!("seed 7: {kept} of 200 samples gave a pose");
+    assert!((10..200).contains(&kept), "{kept} of 200 samples gave a pose: both kinds must be counted");
+    assert_eq!(allocations, 0, "allocations over 200 samples");
 }

@@ -402,7 +402,7 @@ fn the_polish_refines_end_points_a_lenient_tracker_returns_short() {
     };
     let options = PipelineOptions { tracker: lenient, fallback: false, ..PipelineOptions::default() };
     let short = match pipeline(options).solve(&data) {
-        Err(PipelineError::NotValidated(best)) => *best,
+        Err(PipelineError::NotValidated(best)) => best,
         other => panic!("expected the lenient end point to be flagged, got {other:?}"),
     };
     println!("without the polish: max angle {:e}, {} Newton iterations", short.check.0, short.stats.newton_iterations);

@@ -185,7 +185,7 @@ pub fn move_frames(rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> (Params, U
 ///    one factor (the rms distance of the centred origins). With `X' = k R_i (X - c_i)` in each
 ///    rig, the pose becomes `R' = R_1 R R_2^T`, `t' = k R_1 (R c_2 + t - c_1)`.
 pub fn canonicalize(p: &Params) -> Option<(Params, CanonicalFrame<7>)> {
-    let rows: Vec<[Vector3<f64>; 4]> = (0..7).map(|i| row(p, i)).collect();
+    let rows: [[Vector3<f64>; 4]; 7] = std::array::from_fn(|i| row(p, i));
     let frame = |k: usize| bearing_frame(rows.iter().map(|r| r[k]));
     let (r1, r2) = (frame(0)?, frame(2)?);
     let centre = |k: usize| rows.iter().map(|r| r[k]).sum::<Vector3<f64>>() / 7.0;
@@ -210,7 +210,7 @@ pub fn canonicalize(p: &Params) -> Option<(Params, CanonicalFrame<7>)> {
         let q = unit(r);
         unknowns(&q, &(r1.transpose() * tc / k + c1 - r * c2))
     };
-    Some((out, CanonicalFrame { to_canonical: Box::new(to_canonical), to_user: Box::new(to_user) }))
+    Some((out, CanonicalFrame::new(to_canonical, to_user)))
 }
 
 /// 4. Validation: every correspondence's rays coplanar within the tolerance and meeting in

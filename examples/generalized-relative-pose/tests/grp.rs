@@ -53,9 +53,9 @@ fn the_sampler_and_the_frame_change_keep_the_truth_a_solution() {
         assert_eq!(v.verdict(&v.check(&pm, &xm)), Verdict::Accept, "{:?}", v.check(&pm, &xm));
         // The canonical frame: the canonical truth solves the canonical data, and maps back.
         let (pc, frame) = canonicalize(&pm).expect("a frame");
-        let xc = (frame.to_canonical)(&xm);
+        let xc = frame.to_canonical(&xm);
         assert_eq!(v.verdict(&v.check(&pc, &xc)), Verdict::Accept, "{:?}", v.check(&pc, &xc));
-        let [e_r, e_t] = errors(&(frame.to_user)(&xc), &xm);
+        let [e_r, e_t] = errors(&frame.to_user(&xc), &xm);
         assert!(e_r < 1e-5 && e_t < 1e-7, "{e_r} deg, {e_t} %");
         // A wrong pose is rejected: rotation off by a few degrees.
         let mut wrong: Unknowns = xm;

@@ -29,7 +29,7 @@
 //!
 //! [`Solver`]: simhc::solver::Solver
 
-use super::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
+use super::features::{swap_pose, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
 use super::geometry::{validate, GrpsError};
 use super::refine::{angular_residual, refine_pose, translation_scale_for_rotation, LmOptions};
 use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
@@ -179,7 +179,8 @@ impl OutputDecoding for GrpsOutputs {
 
 /// A start from the shipped network beside the learned start's own hypotheses, as in
 /// [`GrpsSolver`]'s starts of the same names (one per [`PredictedKind`]). Tried only after the
-/// learned hypotheses' Gauss-Newton; allocates (a `Vec` of correspondences).
+/// learned hypotheses' Gauss-Newton; allocates nothing (the correspondences on the stack, the
+/// network's pose cached per thread in fixed-size storage).
 pub struct PredictedStart {
     solver: GrpsSolver,
     kind: PredictedKind,
@@ -213,14 +214,17 @@ impl PredictedKind {
 /// A predicted pose `(R, t, s)`, or why there is none.
 type Prediction = Result<(Matrix3<f64>, Vector3<f64>, f64), String>;
 
+/// Parameters a [`PredictedStart`] keeps of the data it last ran on (8 correspondences).
+const CACHED_PARAMS: usize = 8 * ROW_LEN;
+
 thread_local! {
-    /// The data the shipped network last ran on in this thread, and its pose, for the plain and
-    /// the swapped views: the three [`PredictedStart`]s of a solve, each tried with Gauss-Newton
-    /// first and with paths later, run the network twice in all instead of once per start and
-    /// method. Every `PredictedStart` runs the same shipped weights, so one cache serves them
-    /// all.
-    static PREDICTED: std::cell::RefCell<[(Vec<f64>, Prediction); 2]> =
-        const { std::cell::RefCell::new([(Vec::new(), Err(String::new())), (Vec::new(), Err(String::new()))]) };
+    /// The data the shipped network last ran on in this thread (its length and numbers), and
+    /// its pose, for the plain and the swapped views: the three [`PredictedStart`]s of a solve,
+    /// each tried with Gauss-Newton first and with paths later, run the network twice in all
+    /// instead of once per start and method. Every `PredictedStart` runs the same shipped
+    /// weights, so one cache serves them all. Fixed-size, so a solve allocates nothing here.
+    static PREDICTED: std::cell::RefCell<[(usize, [f64; CACHED_PARAMS], Prediction); 2]> =
+        const { std::cell::RefCell::new([(0, [0.0; CACHED_PARAMS], Err(String::new())), (0, [0.0; CACHED_PARAMS], Err(String::new()))]) };
 }
 
 impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for PredictedStart {
@@ -232,33 +236,48 @@ impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for PredictedStart {
         }
     }
     fn start(&self, p: &SVector<f64, NP>) -> Result<Unknowns, StartError> {
-        let fail = |reason: String| StartError { provider: "predicted", reason };
-        let corrs: Vec<GrpsCorrespondence> = p.as_slice().chunks_exact(ROW_LEN).map(correspondence_of_row).collect();
+        let fail = |reason: std::borrow::Cow<'static, str>| StartError { provider: "predicted", reason };
+        // On the stack: the declared problems have 7 or 8 correspondences.
+        let n = NP / ROW_LEN;
+        if n == 0 || n * ROW_LEN != NP || NP > CACHED_PARAMS {
+            return Err(fail(format!("{NP} parameters are not 7 or 8 correspondences").into()));
+        }
+        let mut rows = p.as_slice().chunks_exact(ROW_LEN).map(correspondence_of_row);
+        let first = rows.next().ok_or_else(|| fail("no correspondence".into()))?;
+        let mut held = [first; 8];
+        for (slot, c) in held[1..].iter_mut().zip(rows) {
+            *slot = c;
+        }
+        let corrs = &held[..n];
         let predict = || {
             let pose = if self.kind.swapped() {
-                let pose = self.solver.predict(&swap_views(&corrs)).map_err(|e| e.to_string())?;
+                let mut swapped = held;
+                for c in &mut swapped[..n] {
+                    *c = GrpsCorrespondence { f: c.fp, v: c.vp, fp: c.f, vp: c.v };
+                }
+                let pose = self.solver.predict(&swapped[..n]).map_err(|e| e.to_string())?;
                 swap_pose(&pose.rotation, &pose.translation, pose.scale)
             } else {
-                let pose = self.solver.predict(&corrs).map_err(|e| e.to_string())?;
+                let pose = self.solver.predict(corrs).map_err(|e| e.to_string())?;
                 (pose.rotation, pose.translation, pose.scale)
             };
             Ok(pose)
         };
         let (r, t, s) = PREDICTED
             .with_borrow_mut(|cache| {
-                let (data, pose) = &mut cache[usize::from(self.kind.swapped())];
-                if data.as_slice() != p.as_slice() {
-                    data.clear();
-                    data.extend_from_slice(p.as_slice());
+                let (len, data, pose) = &mut cache[usize::from(self.kind.swapped())];
+                if data[..*len] != *p.as_slice() {
+                    *len = NP;
+                    data[..NP].copy_from_slice(p.as_slice());
                     *pose = predict();
                 }
                 pose.clone()
             })
-            .map_err(fail)?;
+            .map_err(|e| fail(e.into()))?;
         if !self.kind.least_squares() {
             return Ok(unknowns_of(&r, &t, s));
         }
-        match translation_scale_for_rotation(&r, &corrs) {
+        match translation_scale_for_rotation(&r, corrs) {
             Some((t, s)) if s > 0.0 => Ok(unknowns_of(&r, &t, s)),
             _ => Err(fail("no least-squares translation with a positive scale".into())),
         }
@@ -332,10 +351,10 @@ macro_rules! grps_problem {
             fn canonicalize(&self, p: &SVector<f64, $np>) -> Option<(SVector<f64, $np>, CanonicalFrame<8>)> {
                 let corrs = correspondences_of::<$rows>(p.as_slice());
                 let frame = GrpsFrame::new(&corrs)?;
-                let canonical = params_of::<$np>(&frame.canonical(&corrs))?;
-                let to_canonical = Box::new(move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.to_canonical(r, t, s)));
-                let to_user = Box::new(move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.from_canonical(r, t, s)));
-                Some((canonical, CanonicalFrame { to_canonical, to_user }))
+                let canonical = params_of::<$np>(&corrs.map(|c| frame.canonical_one(&c)))?;
+                let to_canonical = move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.to_canonical(r, t, s));
+                let to_user = move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.from_canonical(r, t, s));
+                Some((canonical, CanonicalFrame::new(to_canonical, to_user)))
             }
             /// [`GrpsSolver`]'s: paths not required to converge to the last digit, their end
             /// points polished by Gauss-Newton (at most 20 iterations), and 4 more attempts

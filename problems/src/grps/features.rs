@@ -122,15 +122,17 @@ impl GrpsFrame {
     /// The correspondences in the canonical frames (module docs): `f~ = Q1 f`,
     /// `v~ = Q1 (v - m1) / k1`, and the same for view 2. Bearings keep their length.
     pub fn canonical(&self, corrs: &[GrpsCorrespondence]) -> Vec<GrpsCorrespondence> {
-        corrs
-            .iter()
-            .map(|c| GrpsCorrespondence {
-                f: self.q1 * c.f,
-                v: self.q1 * (c.v - self.m1) / self.k1,
-                fp: self.q2 * c.fp,
-                vp: self.q2 * (c.vp - self.m2) / self.k2,
-            })
-            .collect()
+        corrs.iter().map(|c| self.canonical_one(c)).collect()
+    }
+
+    /// One correspondence in the canonical frames ([`Self::canonical`], without a `Vec`).
+    pub fn canonical_one(&self, c: &GrpsCorrespondence) -> GrpsCorrespondence {
+        GrpsCorrespondence {
+            f: self.q1 * c.f,
+            v: self.q1 * (c.v - self.m1) / self.k1,
+            fp: self.q2 * c.fp,
+            vp: self.q2 * (c.vp - self.m2) / self.k2,
+        }
     }
 
     /// The canonical pose `(R~, t~, s~)` of a pose (module docs).

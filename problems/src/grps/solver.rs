@@ -503,10 +503,35 @@ impl GrpsSolver {
         self.blocks().map_or(1, |b| b.count)
     }
 
-    /// The regressor's pose for `corrs` (checked input, at least one correspondence): its
-    /// first-ranked hypothesis.
+    /// The regressor's pose for `corrs` (checked input): its first-ranked hypothesis, as
+    /// [`GrpsSolver::predict_all`]'s first. Makes no heap allocation for up to 8
+    /// correspondences: the declared problems' other starts
+    /// ([`super::declared::PredictedStart`]) run it inside a solve.
     pub fn predict(&self, corrs: &[GrpsCorrespondence]) -> Result<GrpsPose, GrpsSolveError> {
-        Ok(self.predict_all(corrs)?[0])
+        /// Correspondences held on the stack.
+        const STACK: usize = 8;
+        validate(corrs)?;
+        let frame = frame_of(corrs)?;
+        let mut best: Option<(f64, GrpsPose)> = None;
+        // The first of the lowest rank: what the stable sort of `predict_all` puts first.
+        let mut keep = |rank: f64, pose: GrpsPose| {
+            if best.is_none_or(|(b, _)| rank.total_cmp(&b).is_lt()) {
+                best = Some((rank, pose));
+            }
+        };
+        if let Some(&first) = corrs.first().filter(|_| corrs.len() <= STACK) {
+            let mut canonical = [first; STACK];
+            for (out, c) in canonical.iter_mut().zip(corrs) {
+                *out = frame.canonical_one(c);
+            }
+            let mut rows = [0.0f32; GRPS_ROW_WIDTH * STACK];
+            self.forward_canonical(&canonical[..corrs.len()], &mut rows[..GRPS_ROW_WIDTH * corrs.len()], &mut keep)?;
+        } else {
+            let mut rows = vec![0.0f32; GRPS_ROW_WIDTH * corrs.len()];
+            self.forward_canonical(&frame.canonical(corrs), &mut rows, &mut keep)?;
+        }
+        let (_, pose) = best.ok_or(GrpsSolveError::BadPrediction)?;
+        Ok(from_canonical(&frame, &pose))
     }
 
     /// All of the regressor's start hypotheses for `corrs`, best-ranked first (by
@@ -521,31 +546,44 @@ impl GrpsSolver {
     /// The regressor's hypotheses for correspondences already in their canonical frames, ranked
     /// (at least one).
     fn predict_canonical(&self, canonical: &[GrpsCorrespondence]) -> Result<Vec<GrpsPose>, GrpsSolveError> {
-        let frame = GrpsFrame::IDENTITY;
         let mut rows = vec![0.0f32; GRPS_ROW_WIDTH * canonical.len()];
-        if !frame.rows(canonical, &mut rows) {
+        let mut ranked: Vec<(f64, GrpsPose)> = Vec::with_capacity(MAX_HYPOTHESES);
+        self.forward_canonical(canonical, &mut rows, |rank, pose| ranked.push((rank, pose)))?;
+        // Stable: equal ranks keep the network's order.
+        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Ok(ranked.into_iter().map(|(_, p)| p).collect())
+    }
+
+    /// Runs the network on canonical correspondences (`rows`: a buffer of their input rows)
+    /// and hands each decoded hypothesis to `each` with its rank (lower is better; 0 for a
+    /// network of one hypothesis); an error when none decodes.
+    fn forward_canonical(
+        &self,
+        canonical: &[GrpsCorrespondence],
+        rows: &mut [f32],
+        mut each: impl FnMut(f64, GrpsPose),
+    ) -> Result<(), GrpsSolveError> {
+        let frame = GrpsFrame::IDENTITY;
+        if !frame.rows(canonical, rows) {
             return Err(GrpsSolveError::NoCanonicalFrame);
         }
         let blocks = self.blocks()?;
         let mut out = [0.0f64; (GRPS_OUTPUTS + 1) * MAX_HYPOTHESES];
         let out = &mut out[..blocks.outputs()];
-        self.network.forward(&rows, out)?;
-        let mut ranked: Vec<(f64, GrpsPose)> = out[..blocks.count * GRPS_OUTPUTS]
-            .chunks_exact(GRPS_OUTPUTS)
-            .filter_map(|block| {
-                let (rotation, translation, scale) = frame.decode(block.try_into().ok()?)?;
-                // Lower ranks first. The data ranks better than the network's scores here
-                // (measured, see `rotation_residual`).
-                let rank = if blocks.count > 1 { rotation_residual(&rotation, canonical) } else { 0.0 };
-                Some((rank, GrpsPose { rotation, translation, scale }))
-            })
-            .collect();
-        // Stable: equal ranks keep the network's order.
-        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
-        if ranked.is_empty() {
+        self.network.forward(rows, out)?;
+        let mut decoded = 0;
+        for block in out[..blocks.count * GRPS_OUTPUTS].chunks_exact(GRPS_OUTPUTS) {
+            let Some((rotation, translation, scale)) = block.try_into().ok().and_then(|b| frame.decode(b)) else { continue };
+            // Lower ranks first. The data ranks better than the network's scores here
+            // (measured, see `rotation_residual`).
+            let rank = if blocks.count > 1 { rotation_residual(&rotation, canonical) } else { 0.0 };
+            each(rank, GrpsPose { rotation, translation, scale });
+            decoded += 1;
+        }
+        if decoded == 0 {
             return Err(GrpsSolveError::BadPrediction);
         }
-        Ok(ranked.into_iter().map(|(_, p)| p).collect())
+        Ok(())
     }
 
     /// Solves with the regressor's start and the retries of the options.
@@ -821,7 +859,7 @@ impl StartProvider<[GrpsCorrespondence], 8> for Hypothesis<'_, '_> {
     fn start(&self, corrs: &[GrpsCorrespondence]) -> Result<SVector<f64, 8>, StartError> {
         self.set.start(self.kind, corrs).map(|p| p.unknowns()).ok_or_else(|| StartError {
             provider: self.kind.name(),
-            reason: "no start: no least-squares translation and positive scale, or no swapped prediction".to_string(),
+            reason: "no start: no least-squares translation and positive scale, or no swapped prediction".into(),
         })
     }
 }

@@ -135,7 +135,7 @@ impl LearnedHypotheses<[UpnpCorrespondence], 4> for UpnpLearned {
         1
     }
     fn rank(&self, corrs: &[UpnpCorrespondence]) -> Result<Ranked<4>, StartError> {
-        let q = super::solver::predict(&self.network, corrs).map_err(|e| StartError { provider: "learned", reason: e.to_string() })?;
+        let q = super::solver::predict(&self.network, corrs).map_err(|e| StartError { provider: "learned", reason: e.to_string().into() })?;
         Ok(Ranked::one(SVector::from(q)))
     }
 }
@@ -148,7 +148,7 @@ impl StartProvider<[UpnpCorrespondence], 4> for LinearStart {
         "linear"
     }
     fn start(&self, corrs: &[UpnpCorrespondence]) -> Result<SVector<f64, 4>, StartError> {
-        let r = linear_rotation(corrs).map_err(|e| StartError { provider: "linear", reason: e.to_string() })?;
+        let r = linear_rotation(corrs).map_err(|e| StartError { provider: "linear", reason: e.to_string().into() })?;
         Ok(SVector::from(quat_from_rotation(&r)))
     }
 }

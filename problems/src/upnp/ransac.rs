@@ -105,6 +105,16 @@ impl UpnpEstimator {
     }
 }
 
+impl UpnpEstimator {
+    /// The pose of one sample, if it validates on the sample.
+    fn solve_sample(&self, sample: &[UpnpCorrespondence], out: &mut Vec<UpnpPose>) {
+        // A sample that does not validate holds an outlier or missed its basin: dropped.
+        if let Ok(s) = self.solver.run_pipeline(sample, &self.attempts, false, None) {
+            out.extend(upnp_pose(&s.x, sample));
+        }
+    }
+}
+
 impl Estimator for UpnpEstimator {
     type Datum = UpnpCorrespondence;
     type Model = UpnpPose;
@@ -114,11 +124,17 @@ impl Estimator for UpnpEstimator {
     }
 
     fn solve(&self, data: &[UpnpCorrespondence], indices: &[usize], out: &mut Vec<UpnpPose>) {
-        let sample: Vec<UpnpCorrespondence> = indices.iter().map(|&i| data[i]).collect();
-        // A sample that does not validate holds an outlier or missed its basin: dropped.
-        if let Ok(s) = self.solver.run_pipeline(&sample[..], &self.attempts, false, None) {
-            out.extend(upnp_pose(&s.x, &sample));
+        // Samples of up to 16 on the stack: a sample's solve allocates nothing.
+        const STACK: usize = 16;
+        let (Some(&first), true) = (indices.first().map(|&i| &data[i]), indices.len() <= STACK) else {
+            let sample: Vec<UpnpCorrespondence> = indices.iter().map(|&i| data[i]).collect();
+            return self.solve_sample(&sample, out);
+        };
+        let mut held = [first; STACK];
+        for (slot, &i) in held.iter_mut().zip(indices) {
+            *slot = data[i];
         }
+        self.solve_sample(&held[..indices.len()], out);
     }
 
     fn residual(&self, model: &UpnpPose, datum: &UpnpCorrespondence) -> f64 {

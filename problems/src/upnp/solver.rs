@@ -347,7 +347,7 @@ impl UpnpSolver {
         };
         match pipeline.solve(&instance) {
             Ok(solved) => report(solved),
-            Err(PipelineError::NotValidated(best)) => Err(SolveError::NotValidated(Box::new(report(*best)?))),
+            Err(PipelineError::NotValidated(best)) => Err(SolveError::NotValidated(Box::new(report(best)?))),
             Err(PipelineError::NoEndPoint { last, .. }) => Err(match last {
                 Some(AttemptError::Start(e)) => SolveError::Start(e),
                 Some(AttemptError::Simulator(e)) => SolveError::Simulator(e),
@@ -385,7 +385,7 @@ impl StartProvider<UpnpInstance<'_>, 4> for LinearStart {
         "linear"
     }
     fn start(&self, data: &UpnpInstance<'_>) -> Result<SVector<f64, 4>, StartError> {
-        let r = linear_rotation(data.corrs).map_err(|e| StartError { provider: "linear", reason: e.to_string() })?;
+        let r = linear_rotation(data.corrs).map_err(|e| StartError { provider: "linear", reason: e.to_string().into() })?;
         Ok(SVector::from(quat_from_rotation(&r)))
     }
 }
@@ -398,7 +398,7 @@ impl StartProvider<UpnpInstance<'_>, 4> for RegressorStart<'_> {
         "regressor"
     }
     fn start(&self, data: &UpnpInstance<'_>) -> Result<SVector<f64, 4>, StartError> {
-        let q = self.0.predict_unchecked(data.corrs).map_err(|e| StartError { provider: "regressor", reason: e.to_string() })?;
+        let q = self.0.predict_unchecked(data.corrs).map_err(|e| StartError { provider: "regressor", reason: e.to_string().into() })?;
         Ok(SVector::from(q))
     }
 }
@@ -459,13 +459,23 @@ impl Fallback<UpnpInstance<'_>, 4, 66> for GlobalMinimum {
 /// The regressor's unit quaternion for the correspondences: `network` on their canonical rows
 /// ([`super::features`]), decoded to the input frames. The correspondences are not checked.
 pub fn predict(network: &FoldedNetwork, corrs: &[UpnpCorrespondence]) -> Result<[f64; 4], SolveError> {
+    /// Correspondences whose input rows are held on the stack (a RANSAC sample, a usual
+    /// solve): no heap allocation for them.
+    const STACK: usize = 32;
     let frame = UpnpFrame::new(corrs).ok_or(UpnpError::CollinearPoints)?;
-    let mut rows = vec![0.0f32; UPNP_ROW_WIDTH * corrs.len()];
-    if !frame.rows(corrs, &mut rows) {
+    let mut stack = [0.0f32; UPNP_ROW_WIDTH * STACK];
+    let mut heap = Vec::new();
+    let rows = if corrs.len() <= STACK {
+        &mut stack[..UPNP_ROW_WIDTH * corrs.len()]
+    } else {
+        heap.resize(UPNP_ROW_WIDTH * corrs.len(), 0.0f32);
+        &mut heap[..]
+    };
+    if !frame.rows(corrs, rows) {
         return Err(RegressorError::NonFinite.into());
     }
     let mut out = [0.0f64; UPNP_OUTPUTS];
-    network.forward(&rows, &mut out)?;
+    network.forward(rows, &mut out)?;
     Ok(frame.decode(&out).ok_or(RegressorError::NonFinite)?)
 }
 

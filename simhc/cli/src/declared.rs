@@ -259,7 +259,7 @@ where
         let trained = train_learned_start_with(&S::Data::LAYOUT, rows, &config, |rng| {
             let (mut p, mut x) = self.problem.scene(rng, a.noise);
             if let Some((pc, frame)) = self.problem.canonicalize(&p) {
-                (p, x) = (pc, (frame.to_canonical)(&x));
+                (p, x) = (pc, frame.to_canonical(&x));
             }
             (p.as_slice().to_vec(), x.as_slice().to_vec())
         })
@@ -353,7 +353,7 @@ where
         let first = |p: &SVector<f64, ND>| RankedStarts::new(solver.learned_start()).start(p, 0).ok();
         let mut rows = vec![
             bench_estimate_row("Pred Initial", &trials, &score, |p| match self.problem.canonicalize(p) {
-                Some((pc, frame)) => first(&pc).map(|x| (frame.to_user)(&x)),
+                Some((pc, frame)) => first(&pc).map(|x| frame.to_user(&x)),
                 None => first(p),
             }),
             row(if has_refine { "Pred + Gauss-Newton (all rows)" } else { "Pred + Gauss-Newton" }, gauss_newton, false, &trials),

@@ -140,7 +140,7 @@ impl DeclaredProblem<2, 4, 8, { Line4::NC }, 8> for NanFrame {
         Line.correct(errors)
     }
     fn canonicalize(&self, _: &P) -> Option<(P, CanonicalFrame<2>)> {
-        Some((P::from_element(f64::NAN), CanonicalFrame { to_canonical: Box::new(|x| *x), to_user: Box::new(|x| *x) }))
+        Some((P::from_element(f64::NAN), CanonicalFrame::new(|x| *x, |x| *x)))
     }
 }
 

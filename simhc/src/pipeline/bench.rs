@@ -249,7 +249,7 @@ mod tests {
         let row = bench_row("r", &trials, &|x: &SVector<f64, 1>, t: &SVector<f64, 1>| (x[0] - t[0]).abs() < 1e-9, |k: &u8| match k {
             0 => Ok(solved(1.0)),
             1 => Ok(solved(2.0)),
-            2 => Err(PipelineError::<Bad, (), 1>::NotValidated(Box::new(solved(3.0)))),
+            2 => Err(PipelineError::<Bad, (), 1>::NotValidated(solved(3.0))),
             _ => Err(PipelineError::Input(Bad)),
         });
         assert_eq!((row.solved, row.wrong, row.flagged, row.failed, row.trials), (1, 1, 1, 1, 4));

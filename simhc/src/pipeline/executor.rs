@@ -128,24 +128,26 @@ where
         let Some((frame, canonical)) = canon.canonicalize(data) else {
             return self.solve(data);
         };
-        let back = |mut s: Solved<V::Check, NX>| {
+        let back = |s: &mut Solved<V::Check, NX>| {
             s.x = canon.to_user(&frame, &s.x);
             s.start = canon.to_user(&frame, &s.start);
             s.check = self.validator.check(data, &s.x);
-            s
         };
         match self.solve(canonical.borrow()) {
-            Ok(s) => {
-                let s = back(s);
+            Ok(mut s) => {
+                back(&mut s);
                 if self.validator.verdict(&s.check) == Verdict::Reject {
                     // Accepted in the canonical frame, not in the user's (rounding at a
                     // threshold): flagged, never returned as a solution.
-                    Err(PipelineError::NotValidated(Box::new(s)))
+                    Err(PipelineError::NotValidated(s))
                 } else {
                     Ok(s)
                 }
             }
-            Err(PipelineError::NotValidated(s)) => Err(PipelineError::NotValidated(Box::new(back(*s)))),
+            Err(PipelineError::NotValidated(mut s)) => {
+                back(&mut s);
+                Err(PipelineError::NotValidated(s))
+            }
             Err(e) => Err(e),
         }
     }
@@ -302,7 +304,7 @@ where
             Some(mut b) => {
                 b.attempts = attempts;
                 b.times = times;
-                Err(PipelineError::NotValidated(Box::new(b)))
+                Err(PipelineError::NotValidated(b))
             }
             None => Err(PipelineError::NoEndPoint { attempts, last }),
         }
@@ -310,7 +312,7 @@ where
 }
 
 fn no_other_simulator(k: usize) -> AttemptError {
-    AttemptError::Start(StartError { provider: "schedule", reason: format!("no other simulator {k}") })
+    AttemptError::Start(StartError { provider: "schedule", reason: format!("no other simulator {k}").into() })
 }
 
 /// The attempts of a schedule (by default one Simulator HC path per provider), each with its
@@ -345,7 +347,7 @@ impl<D: ?Sized, const NX: usize> Iterator for Plan<'_, D, NX> {
         let Attempt { provider, method } = attempt;
         let Some(start) = self.starts.get(provider) else {
             let reason = format!("no start provider {provider}");
-            return Some((attempt, Err(AttemptError::Start(StartError { provider: "schedule", reason }))));
+            return Some((attempt, Err(AttemptError::Start(StartError { provider: "schedule", reason: reason.into() }))));
         };
         if let Method::OtherSimulatorHc(k) = method {
             if k >= self.other_simulators {

@@ -258,7 +258,7 @@ impl<R: InputRows, D: OutputDecoding, const NX: usize, const NP: usize> StartPro
     }
     fn start(&self, p: &SVector<f64, NP>) -> Result<SVector<f64, NX>, StartError> {
         let mut x = SVector::<f64, NX>::zeros();
-        self.predict(p.as_slice(), x.as_mut_slice()).map_err(|e| StartError { provider: "learned", reason: e.to_string() })?;
+        self.predict(p.as_slice(), x.as_mut_slice()).map_err(|e| StartError { provider: "learned", reason: e.to_string().into() })?;
         Ok(x)
     }
 }

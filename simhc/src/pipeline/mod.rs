@@ -44,8 +44,9 @@ use crate::SimulatorError;
 pub struct StartError {
     /// The provider's name.
     pub provider: &'static str,
-    /// What went wrong, for the user.
-    pub reason: String,
+    /// What went wrong, for the user (a fixed message, or one made for the case: a fixed one
+    /// allocates nothing, and inside RANSAC most samples fail).
+    pub reason: std::borrow::Cow<'static, str>,
 }
 
 /// A rough solution `x0` of the data (stage 1 of the paper).
@@ -233,7 +234,8 @@ pub enum PipelineError<E: std::error::Error, C: Debug, const NX: usize> {
         last: Option<AttemptError>,
     },
     /// End points were found but none validated: the best one, flagged. Do not use it as a
-    /// solution.
+    /// solution. Held inline, not boxed: inside RANSAC most samples end here, and a solve
+    /// allocates nothing.
     #[error("no end point validated after {} attempts (best: {:?})", .0.attempts, .0.check)]
-    NotValidated(Box<Solved<C, NX>>),
+    NotValidated(Solved<C, NX>),
 }

@@ -140,7 +140,7 @@ impl<'a, L, const NX: usize> RankedStarts<'a, L, NX> {
         let Some((_, ranked)) = &*cache else { unreachable!("just filled") };
         match ranked {
             Ok(r) if rank < r.count => Ok(r.x[rank]),
-            Ok(_) => Err(StartError { provider: "learned", reason: format!("no hypothesis of rank {rank}") }),
+            Ok(_) => Err(StartError { provider: "learned", reason: format!("no hypothesis of rank {rank}").into() }),
             Err(e) => Err(e.clone()),
         }
     }

@@ -188,7 +188,7 @@ where
 
     fn rank(&self, p: &SVector<f64, ND>) -> Result<Ranked<NX>, StartError> {
         let blocks = self.start.blocks();
-        let fail = |e: RegressorError| StartError { provider: "learned", reason: e.to_string() };
+        let fail = |e: RegressorError| StartError { provider: "learned", reason: e.to_string().into() };
         let mut out = [0.0f64; crate::regressor::MAX_WIDTH];
         let out = &mut out[..blocks.outputs()];
         self.start.predict_all(p.as_slice(), out).map_err(fail)?;
@@ -327,7 +327,7 @@ where
         self.0.canonical(data).map(|(d, frame)| (frame, d))
     }
     fn to_user(&self, frame: &CanonicalFrame<NX>, x: &SVector<f64, NX>) -> SVector<f64, NX> {
-        (frame.to_user)(x)
+        frame.to_user(x)
     }
 }
 
@@ -365,7 +365,7 @@ where
     }
     fn start(&self, data: &D) -> Result<SVector<f64, NX>, StartError> {
         let x0 = self.set.start(data, self.rank)?;
-        let fail = |reason: &str| StartError { provider: "refined", reason: reason.to_string() };
+        let fail = |reason: &'static str| StartError { provider: "refined", reason: reason.into() };
         match self.problem.refine_start(data, &x0) {
             Refinement::Converged(x) => Ok(x),
             Refinement::Failed => Err(fail("Gauss-Newton on all rows did not converge")),

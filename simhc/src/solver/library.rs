@@ -430,6 +430,6 @@ impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for NoStart {
         "none"
     }
     fn start(&self, _: &D) -> Result<SVector<f64, NX>, StartError> {
-        Err(StartError { provider: "none", reason: "no start provider in this slot".to_string() })
+        Err(StartError { provider: "none", reason: "no start provider in this slot".into() })
     }
 }

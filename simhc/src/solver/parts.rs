@@ -30,7 +30,7 @@ where
         self.0.canonicalize(data).filter(|(p, _)| p.iter().all(|v| v.is_finite())).map(|(p, frame)| (frame, p))
     }
     fn to_user(&self, frame: &CanonicalFrame<NX>, x: &SVector<f64, NX>) -> SVector<f64, NX> {
-        (frame.to_user)(x)
+        frame.to_user(x)
     }
 }
 

@@ -11,6 +11,7 @@ use crate::training::LearnedStartConfig;
 use crate::{CoefficientForm, InstanceSizes, OnlineSimulator, ParamDerivative, ProblemLayout};
 use nalgebra::SVector;
 use rand_chacha::ChaCha8Rng;
+use smallbox::{smallbox, space, SmallBox};
 
 /// A declared problem: what its solver, its robust estimator and its commands need.
 ///
@@ -195,16 +196,47 @@ pub type OtherStart<const NX: usize, const ND: usize> = Box<dyn StartProvider<SV
 pub type OtherSimulator<const NX: usize, const NF: usize, const NP: usize, const ND: usize> =
     Box<dyn StartSimulator<SVector<f64, ND>, NX, NF, NP> + Send + Sync>;
 
-/// A map of the unknowns from one frame to another.
-pub type UnknownsMap<const NX: usize> = Box<dyn Fn(&SVector<f64, NX>) -> SVector<f64, NX>>;
+/// A map of the unknowns from one frame to another, held inline: a closure that captures up
+/// to 256 bytes (two rotations, two offsets and two scales, say) is stored without a heap
+/// allocation; a larger one is boxed on the heap ([`smallbox`]).
+pub type UnknownsMap<const NX: usize> = SmallBox<dyn Fn(&SVector<f64, NX>) -> SVector<f64, NX>, space::S32>;
 
 /// The maps of the unknowns between the user's frame and a canonical frame of the data
-/// ([`DeclaredProblem::canonicalize`]).
+/// ([`DeclaredProblem::canonicalize`]), made by [`CanonicalFrame::new`].
+///
+/// Why not two `Box<dyn Fn>`: a frame is made on every solve, and two boxes were the only heap
+/// allocations of a validated solve of a problem with a frame. The maps are held inline
+/// ([`UnknownsMap`]) when their captures fit in 256 bytes ([`CanonicalFrame::is_inline`]).
 pub struct CanonicalFrame<const NX: usize> {
-    /// User's unknowns to canonical ones.
-    pub to_canonical: UnknownsMap<NX>,
-    /// Canonical unknowns to the user's.
-    pub to_user: UnknownsMap<NX>,
+    to_canonical: UnknownsMap<NX>,
+    to_user: UnknownsMap<NX>,
+}
+
+impl<const NX: usize> CanonicalFrame<NX> {
+    /// The frame of the two maps: `to_canonical` takes the user's unknowns to canonical ones,
+    /// `to_user` back (its inverse).
+    pub fn new<C, U>(to_canonical: C, to_user: U) -> Self
+    where
+        C: Fn(&SVector<f64, NX>) -> SVector<f64, NX> + 'static,
+        U: Fn(&SVector<f64, NX>) -> SVector<f64, NX> + 'static,
+    {
+        Self { to_canonical: smallbox!(to_canonical), to_user: smallbox!(to_user) }
+    }
+
+    /// The user's unknowns `x` in the canonical frame.
+    pub fn to_canonical(&self, x: &SVector<f64, NX>) -> SVector<f64, NX> {
+        (*self.to_canonical)(x)
+    }
+
+    /// Canonical unknowns `x` in the user's frame.
+    pub fn to_user(&self, x: &SVector<f64, NX>) -> SVector<f64, NX> {
+        (*self.to_user)(x)
+    }
+
+    /// Whether both maps are held without a heap allocation (their captures fit in 256 bytes).
+    pub fn is_inline(&self) -> bool {
+        !self.to_canonical.is_heap() && !self.to_user.is_heap()
+    }
 }
 
 /// What [`DeclaredProblem::refine`] did.

@@ -102,7 +102,7 @@ where
         let x = self.set.start(data, 0)?;
         self.problem
             .restart_start(data, &x, self.k)
-            .ok_or_else(|| StartError { provider: "restart", reason: format!("the problem has no restart {} around this start", self.k) })
+            .ok_or_else(|| StartError { provider: "restart", reason: format!("the problem has no restart {} around this start", self.k).into() })
     }
 }
 

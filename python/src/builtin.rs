@@ -14,20 +14,11 @@ use simhc_problems::robust::RobustError;
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::ransac::UpnpEstimator;
 use simhc_problems::upnp::scene::UpnpCorrespondence;
-use simhc_problems::upnp::solver::UpnpSolver;
 use std::fmt::Display;
 use std::sync::OnceLock;
 
 /// The focal length (pixels) the estimators' pixel defaults refer to.
 const FOCAL_PX: f64 = 800.0;
-
-fn upnp_solver() -> Result<&'static UpnpSolver, Failure> {
-    static SOLVER: OnceLock<Result<UpnpSolver, String>> = OnceLock::new();
-    SOLVER
-        .get_or_init(|| UpnpSolver::new().map_err(|e| e.to_string()))
-        .as_ref()
-        .map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))
-}
 
 /// The UPnP library solver (`simhc::solver::InstanceSolver`, the assembly of every problem),
 /// built once.
@@ -168,8 +159,9 @@ pub fn estimate_upnp<'py>(
     let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
     let max_angle = (8.0 * noise_angle(noise)?).max(1e-6);
     let corrs = upnp_correspondences(points, bearings, origins)?;
-    let estimator =
-        UpnpEstimator::new(upnp_solver()?.clone(), max_angle).map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
+    // The library solver's learned start, shared: one copy of the weights in the process.
+    let learned = upnp_library()?.learned_start().clone();
+    let estimator = UpnpEstimator::from_learned(learned, max_angle).map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
     let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
     Ok((Pose::new(py, &pose.rotation, &pose.translation, None)?, info_dict(py, &info)?))
 }

@@ -112,9 +112,11 @@ impl Validator<[UpnpCorrespondence], 4> for UpnpPoseValidator {
 }
 
 /// The learned start of UPnP: the network on the canonical rows of all correspondences
-/// ([`super::features`]), one hypothesis.
+/// ([`super::features`]), one hypothesis. Clones share the network (an estimator per
+/// threshold costs no copy of the weights).
+#[derive(Clone)]
 pub struct UpnpLearned {
-    network: FoldedNetwork,
+    network: Arc<FoldedNetwork>,
 }
 
 impl UpnpLearned {
@@ -126,7 +128,7 @@ impl UpnpLearned {
         if network.output_width() != UPNP_OUTPUTS {
             return Err(RegressorError::Format("network outputs are not UPnP's 4"));
         }
-        Ok(Self { network })
+        Ok(Self { network: Arc::new(network) })
     }
 }
 

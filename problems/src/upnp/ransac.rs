@@ -86,8 +86,13 @@ impl UpnpEstimator {
     /// pose may miss its own correspondences (radians), as [`UpnpProblem::max_angle`]. An
     /// error when the network does not have UPnP's input rows and outputs.
     pub fn new(solver: UpnpSolver, max_angle: f64) -> Result<Self, SolverError> {
+        Self::from_learned(UpnpLearned::new(solver.network().clone())?, max_angle)
+    }
+
+    /// [`UpnpEstimator::new`] around a learned start already built, e.g. a library solver's
+    /// ([`UpnpLibrarySolver::learned_start`], cloned: the clone shares the network).
+    pub fn from_learned(learned: UpnpLearned, max_angle: f64) -> Result<Self, SolverError> {
         let problem = Arc::new(UpnpProblem { max_angle, max_behind: 0, linear_start: false, fallback: false });
-        let learned = UpnpLearned::new(solver.network().clone())?;
         let solver = UpnpLibrarySolver::with_learned(problem, learned, 0.0)?;
         Ok(Self {
             solver: Arc::new(solver),
@@ -189,6 +194,20 @@ mod tests {
         assert_eq!(kept, truth, "true matches kept");
         assert_eq!(wrong, 0, "wrong matches taken");
         assert_eq!(info.inliers.len(), truth);
+    }
+
+    #[test]
+    fn an_estimator_from_a_library_solver_shares_its_network_and_estimates_the_same() {
+        let (scene, _) = scene_with_outliers(9, 60, 0.3);
+        let library = UpnpLibrarySolver::new(UpnpProblem::default()).unwrap();
+        let shared = UpnpEstimator::from_learned(library.learned_start().clone(), 1e-6).unwrap();
+        let own = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6).unwrap();
+        let options = RansacOptions { max_iterations: 300, ..RansacOptions::poselib(1e-4) };
+        let (a, info_a) = shared.estimate(&scene.correspondences, &options).unwrap();
+        let (b, info_b) = own.estimate(&scene.correspondences, &options).unwrap();
+        assert_eq!(a.rotation, b.rotation, "the same weights, samples and steps");
+        assert_eq!(info_a.inlier_mask, info_b.inlier_mask);
+        assert!(rotation_error_deg(&a.rotation, &scene.rotation) < 1e-4);
     }
 
     #[test]

@@ -11,9 +11,12 @@ mod counting_alloc;
 use counting_alloc::counted;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use simhc::pipeline::Origin;
-use simhc::solver::{sample_schedule, DeclaredProblem, Solver};
+use simhc::pipeline::{Attempt, Method, Origin};
+use simhc::solver::hypotheses::other_provider;
+use simhc::solver::{sample_schedule, DeclaredProblem, LearnedHypotheses, Solver};
 use simhc_problems::grps::declared::Grps8Problem;
+use simhc_problems::grps::scene::GrpsSceneConfig;
+use simhc_problems::grps::solver::GrpsSolver;
 
 #[test]
 fn a_solve_short_of_the_fallback_allocates_nothing() {
@@ -37,7 +40,7 @@ fn a_solve_short_of_the_fallback_allocates_nothing() {
             other => println!("scene {k}: {other:?}, {n} allocations"),
         }
     }
-    println!("{paths} of 60 solved short of the fallback, {later_than_first} by a start after the first hypothesis");
+    println!("{paths} of 60 solved short of the fallback, {later_than_first} by a start after the first hypothesis's");
     assert!(paths >= 55, "{paths} of 60");
     assert!(later_than_first > 0, "no solve reached the later starts: they are untested here");
     assert_eq!(allocations, 0, "allocations over {paths} solves");
@@ -65,4 +68,46 @@ fn a_sample_that_does_not_validate_allocates_nothing() {
     let (p, _) = problem.scene(&mut rng, 0.0);
     let (result, n) = counted(|| solver.run_pipeline(&p, &[], true, None));
     assert!(result.is_ok() && n > 0, "{n} allocations from the fallback");
+}
+
+/// The predicted starts ([`simhc_problems::grps::declared::PredictedStart`]: the network's
+/// rotation with least-squares `(t, s)`, the swapped views, and the swapped rotation), each
+/// run alone with Gauss-Newton: they allocate nothing, whether or not they validate.
+#[test]
+fn the_predicted_starts_allocate_nothing() {
+    let solver = Solver::new(Grps8Problem::new()).expect("shipped weights");
+    let problem = solver.problem();
+    let hypotheses = solver.learned_start().hypotheses();
+    let mut rng = ChaCha8Rng::seed_from_u64(44);
+    let (mut validated, mut allocations) = (0, 0);
+    for k in 0..20 {
+        let (p, x) = problem.scene(&mut rng, 0.0);
+        let p = if k % 2 == 1 { problem.move_frames(&mut rng, &p, &x).expect("a frame").0 } else { p };
+        for j in 0..3 {
+            let attempt = Attempt { provider: other_provider(hypotheses, j), method: Method::GaussNewton };
+            let (result, n) = counted(|| solver.run_pipeline(&p, &[attempt], false, None));
+            validated += usize::from(result.is_ok());
+            allocations += n;
+        }
+    }
+    println!("seed 44: {validated} of 60 predicted starts validated");
+    assert!(validated >= 30, "{validated} of 60: the predicted starts must run and mostly validate");
+    assert_eq!(allocations, 0, "allocations over 60 predicted starts");
+}
+
+/// `GrpsSolver::predict` (on the stack up to 8 correspondences) returns the first of
+/// `predict_all` (ranked by a stable sort), on 8 correspondences and on 12 (the heap path).
+#[test]
+fn predict_is_the_first_of_predict_all() {
+    let solver = GrpsSolver::new().expect("shipped weights");
+    let mut rng = ChaCha8Rng::seed_from_u64(45);
+    for points in [8, 12] {
+        let config = GrpsSceneConfig { points, noise_px: 1.0, ..GrpsSceneConfig::default() };
+        for _ in 0..10 {
+            let corrs = config.sample(&mut rng).expect("valid config").correspondences;
+            let first = solver.predict(&corrs).expect("a prediction");
+            let all = solver.predict_all(&corrs).expect("predictions");
+            assert_eq!(first, all[0], "{points} correspondences");
+        }
+    }
 }

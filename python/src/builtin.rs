@@ -161,7 +161,8 @@ pub fn estimate_upnp<'py>(
     let corrs = upnp_correspondences(points, bearings, origins)?;
     // The library solver's learned start, shared: one copy of the weights in the process.
     let learned = upnp_library()?.learned_start().clone();
-    let estimator = UpnpEstimator::from_learned(learned, max_angle).map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
+    let estimator =
+        UpnpEstimator::from_learned(learned, max_angle).map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
     let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
     Ok((Pose::new(py, &pose.rotation, &pose.translation, None)?, info_dict(py, &info)?))
 }

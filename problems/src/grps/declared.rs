@@ -179,8 +179,9 @@ impl OutputDecoding for GrpsOutputs {
 
 /// A start from the shipped network beside the learned start's own hypotheses, as in
 /// [`GrpsSolver`]'s starts of the same names (one per [`PredictedKind`]). Tried only after the
-/// learned hypotheses' Gauss-Newton; allocates nothing (the correspondences on the stack, the
-/// network's pose cached per thread in fixed-size storage).
+/// learned hypotheses' Gauss-Newton; allocates nothing when the network gives a pose (the
+/// correspondences on the stack, the pose cached per thread in fixed-size storage); an error's
+/// message is a `String`.
 pub struct PredictedStart {
     solver: GrpsSolver,
     kind: PredictedKind,
@@ -222,7 +223,7 @@ thread_local! {
     /// its pose, for the plain and the swapped views: the three [`PredictedStart`]s of a solve,
     /// each tried with Gauss-Newton first and with paths later, run the network twice in all
     /// instead of once per start and method. Every `PredictedStart` runs the same shipped
-    /// weights, so one cache serves them all. Fixed-size, so a solve allocates nothing here.
+    /// weights, so one cache serves them all. Fixed-size, so a solve allocates nothing here (but the message of a cached error).
     static PREDICTED: std::cell::RefCell<[(usize, [f64; CACHED_PARAMS], Prediction); 2]> =
         const { std::cell::RefCell::new([(0, [0.0; CACHED_PARAMS], Err(String::new())), (0, [0.0; CACHED_PARAMS], Err(String::new()))]) };
 }

@@ -130,6 +130,11 @@ impl UpnpLearned {
         }
         Ok(Self { network: Arc::new(network) })
     }
+
+    /// The network (shared by the clones of this learned start).
+    pub fn network(&self) -> &FoldedNetwork {
+        &self.network
+    }
 }
 
 impl LearnedHypotheses<[UpnpCorrespondence], 4> for UpnpLearned {
@@ -137,7 +142,8 @@ impl LearnedHypotheses<[UpnpCorrespondence], 4> for UpnpLearned {
         1
     }
     fn rank(&self, corrs: &[UpnpCorrespondence]) -> Result<Ranked<4>, StartError> {
-        let q = super::solver::predict(&self.network, corrs).map_err(|e| StartError { provider: "learned", reason: e.to_string().into() })?;
+        let q =
+            super::solver::predict(&self.network, corrs).map_err(|e| StartError { provider: "learned", reason: e.to_string().into() })?;
         Ok(Ranked::one(SVector::from(q)))
     }
 }

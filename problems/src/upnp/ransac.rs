@@ -201,6 +201,7 @@ mod tests {
         let (scene, _) = scene_with_outliers(9, 60, 0.3);
         let library = UpnpLibrarySolver::new(UpnpProblem::default()).unwrap();
         let shared = UpnpEstimator::from_learned(library.learned_start().clone(), 1e-6).unwrap();
+        assert!(std::ptr::eq(shared.solver.learned_start().network(), library.learned_start().network()), "one copy of the weights");
         let own = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6).unwrap();
         let options = RansacOptions { max_iterations: 300, ..RansacOptions::poselib(1e-4) };
         let (a, info_a) = shared.estimate(&scene.correspondences, &options).unwrap();

@@ -19,9 +19,11 @@
 //! hypotheses, the problem's other starts and simulators, its restarts), then the all-roots
 //! fallback when the problem has one; only an end point that the problem's
 //! validator accepts on all the data comes back as `Ok`. A solve makes no heap allocation
-//! when it ends validated and the problem's own hooks do not allocate (a
-//! [`DeclaredProblem::canonicalize`] returns boxed maps; the fallback returns a `Vec`; UPnP's
-//! learned start and simulator allocate their rows and reprojected correspondences).
+//! short of the all-roots fallback (which returns a `Vec`), validated or flagged, when the
+//! problem's own hooks do not allocate: a [`DeclaredProblem::canonicalize`] frame holds its
+//! maps inline ([`super::CanonicalFrame::new`]), and a start that fails with a fixed message
+//! allocates nothing. Of the built-ins, UPnP's simulator allocates its reprojected
+//! correspondences, and its learned start its rows beyond 32 correspondences.
 
 use super::hypotheses::{other_provider, other_starts_first, provider, provider_count, solver_schedule, RankedStart, RankedStarts};
 use super::instance::{InstanceProblem, LearnedHypotheses, OwnCanon, OwnFallback, OwnSimulator, Parts, RefinedStart};

@@ -36,6 +36,6 @@ pub use library::{
     SolverError, MAX_OTHERS,
 };
 pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, RandomStart};
-pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement, UnknownsMap};
+pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement};
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
 pub use subsystem::{AllRoots, SquareSubsystem};

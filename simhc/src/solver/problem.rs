@@ -196,17 +196,18 @@ pub type OtherStart<const NX: usize, const ND: usize> = Box<dyn StartProvider<SV
 pub type OtherSimulator<const NX: usize, const NF: usize, const NP: usize, const ND: usize> =
     Box<dyn StartSimulator<SVector<f64, ND>, NX, NF, NP> + Send + Sync>;
 
-/// A map of the unknowns from one frame to another, held inline: a closure that captures up
-/// to 256 bytes (two rotations, two offsets and two scales, say) is stored without a heap
-/// allocation; a larger one is boxed on the heap ([`smallbox`]).
-pub type UnknownsMap<const NX: usize> = SmallBox<dyn Fn(&SVector<f64, NX>) -> SVector<f64, NX>, space::S32>;
+/// A map of the unknowns from one frame to another, held inline: a closure whose captures fit
+/// in 32 words (256 bytes on 64-bit targets: two rotations, two offsets and two scales, say)
+/// and need no more than a word's alignment is stored without a heap allocation; another is
+/// boxed on the heap ([`smallbox`]). Private: [`CanonicalFrame`]'s API does not name it.
+type UnknownsMap<const NX: usize> = SmallBox<dyn Fn(&SVector<f64, NX>) -> SVector<f64, NX>, space::S32>;
 
 /// The maps of the unknowns between the user's frame and a canonical frame of the data
 /// ([`DeclaredProblem::canonicalize`]), made by [`CanonicalFrame::new`].
 ///
 /// Why not two `Box<dyn Fn>`: a frame is made on every solve, and two boxes were the only heap
-/// allocations of a validated solve of a problem with a frame. The maps are held inline
-/// ([`UnknownsMap`]) when their captures fit in 256 bytes ([`CanonicalFrame::is_inline`]).
+/// allocations of a validated solve of a problem with a frame. The maps are held inline when
+/// their captures fit in 256 bytes (on 64-bit targets; [`CanonicalFrame::is_inline`]).
 pub struct CanonicalFrame<const NX: usize> {
     to_canonical: UnknownsMap<NX>,
     to_user: UnknownsMap<NX>,
@@ -220,6 +221,9 @@ impl<const NX: usize> CanonicalFrame<NX> {
         C: Fn(&SVector<f64, NX>) -> SVector<f64, NX> + 'static,
         U: Fn(&SVector<f64, NX>) -> SVector<f64, NX> + 'static,
     {
+        // `smallbox!` is the crate's stable way to make an unsized box: its unsafe block (the
+        // crate's own, with its own allow) only pairs the value with a pointer to it, which
+        // unsizes `C` to `dyn Fn`; the value goes inline when it fits, to the heap otherwise.
         Self { to_canonical: smallbox!(to_canonical), to_user: smallbox!(to_user) }
     }
 

@@ -131,15 +131,19 @@ impl Estimator for UpnpEstimator {
     fn solve(&self, data: &[UpnpCorrespondence], indices: &[usize], out: &mut Vec<UpnpPose>) {
         // Samples of up to 16 on the stack: a sample's solve allocates nothing.
         const STACK: usize = 16;
-        let (Some(&first), true) = (indices.first().map(|&i| &data[i]), indices.len() <= STACK) else {
-            let sample: Vec<UpnpCorrespondence> = indices.iter().map(|&i| data[i]).collect();
-            return self.solve_sample(&sample, out);
-        };
-        let mut held = [first; STACK];
-        for (slot, &i) in held.iter_mut().zip(indices) {
-            *slot = data[i];
+        match indices.first() {
+            Some(&i0) if indices.len() <= STACK => {
+                let mut held = [data[i0]; STACK];
+                for (slot, &i) in held.iter_mut().zip(indices) {
+                    *slot = data[i];
+                }
+                self.solve_sample(&held[..indices.len()], out);
+            }
+            _ => {
+                let sample: Vec<UpnpCorrespondence> = indices.iter().map(|&i| data[i]).collect();
+                self.solve_sample(&sample, out);
+            }
         }
-        self.solve_sample(&held[..indices.len()], out);
     }
 
     fn residual(&self, model: &UpnpPose, datum: &UpnpCorrespondence) -> f64 {

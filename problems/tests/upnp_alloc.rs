@@ -57,8 +57,8 @@ fn a_ransac_sample_allocates_nothing() {
     use rand::{Rng, SeedableRng};
     use simhc::ransac::Estimator;
     use simhc_problems::upnp::ransac::UpnpEstimator;
-    use simhc_problems::upnp::solver::UpnpSolver;
-    let estimator = UpnpEstimator::new(UpnpSolver::new().expect("weights"), 0.01).expect("UPnP network");
+    use simhc_problems::upnp::learned::UpnpLearned;
+    let estimator = UpnpEstimator::from_learned(UpnpLearned::shipped().expect("weights"), 0.01).expect("UPnP network");
     let config = UpnpSceneConfig { points: 100, noise_px: 1.0, ..UpnpSceneConfig::default() };
     let mut scene = config.sample_seeded(7).expect("valid config").correspondences;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);

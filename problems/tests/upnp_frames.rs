@@ -1,11 +1,12 @@
-//! Frame invariance of the shipped UPnP solver (proptest): the pose transforms exactly with any
+//! Frame invariance of the UPnP library solver (proptest): the pose transforms exactly with any
 //! rigid change of the world and viewer frames and with any order of the correspondences.
 
 use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
 use rand::SeedableRng;
 use simhc_problems::upnp::scene::{random_rotation, PointBox, UpnpScene, UpnpSceneConfig};
-use simhc_problems::upnp::solver::{UpnpPose, UpnpSolver};
+use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
+use simhc_problems::upnp::pose::UpnpPose;
 
 /// A rigid frame change `x -> rotation x + translation`.
 type Rigid = (Matrix3<f64>, Vector3<f64>);
@@ -26,12 +27,13 @@ fn mapped(pose: &UpnpPose, world: &Rigid, viewer: &Rigid) -> Rigid {
 }
 
 fn check(scene: &UpnpScene, frame_seed: u64, shift: usize, tol: f64) -> Result<(), TestCaseError> {
-    let solver = UpnpSolver::new().expect("shipped weights load");
+    let solver = UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights load");
     let (world, viewer) = frames(frame_seed);
     let mut moved = scene.transformed((&world.0, &world.1), (&viewer.0, &viewer.1));
     moved.correspondences.rotate_left(shift % scene.correspondences.len());
-    let a = solver.solve(&scene.correspondences);
-    let b = solver.solve(&moved.correspondences);
+    let pose = |corrs: &[_]| solver.solve(corrs).map(|s| upnp_pose(&s.x, corrs).expect("a pose"));
+    let a = pose(&scene.correspondences[..]);
+    let b = pose(&moved.correspondences[..]);
     // The shipped solver validated 1000 / 1000 trials of every distribution in `simhc bench upnp`.
     prop_assert!(a.is_ok() && b.is_ok(), "not validated: {:?} / {:?}", a.as_ref().err(), b.as_ref().err());
     if let (Ok(a), Ok(b)) = (a, b) {

@@ -43,7 +43,7 @@ fn upnp_paths(seed: u64) -> Vec<(UpnpLine, SVector<f64, 4>)> {
         let Ok(scene) = UpnpSceneConfig::default().sample(&mut rng) else { continue };
         let q0 = quat_from_rotation(&random_rotation_perturbation(&scene.rotation, 20.0, &mut rng));
         let Ok(target) = upnp_system(&scene.correspondences) else { continue };
-        let Ok(m0) = simhc_problems::upnp::solver::simulate(&target, &scene.correspondences, q0) else { continue };
+        let Ok(m0) = simhc_problems::upnp::simulator::simulate(&target, &scene.correspondences, q0) else { continue };
         out.push((UpnpLine::new::<4, 5>(&upnp::params_of(&m0), &upnp::params_of(&target.m)), SVector::from(q0)));
     }
     out

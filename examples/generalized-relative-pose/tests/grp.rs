@@ -149,6 +149,11 @@ fn solve_reads_a_file_and_says_where_bad_input_is() {
     let found = Unknowns::from_iterator(q.into_iter().chain(t));
     let [e_r, e_t] = errors(&found, &x);
     assert!(e_r < 1e-6 && e_t < 1e-6, "{e_r} deg, {e_t} %");
+    // What produced it, by name: a learned hypothesis (or a restart, another start) and a
+    // method, or the fallback's candidate; JSON, not a Rust debug string.
+    let origin = &doc["origin"];
+    let named = origin["start"].as_str().is_some_and(|s| s.starts_with("learned") || s.starts_with("restart")) && origin["method"].is_string();
+    assert!(named || origin["fallback"].is_u64(), "{origin}");
 
     let bad = dir.join("bad.json");
     std::fs::write(&bad, input(&p, Some((3, "[0.1, 0.2]")))).expect("write");
@@ -335,4 +340,61 @@ fn the_robust_estimate_is_within_the_noise() {
     assert!(e_r < 0.5 && e_t < 5.0, "{e_r} deg, {e_t} %");
     let recalled = info.inlier_mask.iter().zip(&inlier).filter(|(a, b)| **a && **b).count();
     assert!(recalled as f64 >= 0.95 * inlier.iter().filter(|b| **b).count() as f64, "{recalled} true matches kept");
+}
+
+/// Exactly one sample's worth of correspondences: the estimator solves them once, as `solve`
+/// does (before 2026-12-05 it drew up to 100,000 identical samples, each with Gauss-Newton from
+/// the learned start only, and could fail where `solve` succeeds).
+#[test]
+fn the_estimator_on_one_sample_solves_it_once_as_solve_does() {
+    let seed = 44;
+    println!("seed {seed}");
+    let solver = simhc::solver::Solver::new(GenRelPose::new()).expect("shipped weights");
+    let options = simhc::ransac::RansacOptions { seed, ..simhc::ransac::RansacOptions::poselib(1e-6) };
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (mut agree, n) = (0, 10);
+    for _ in 0..n {
+        let (p, truth) = scene(&mut rng, 0.0);
+        let solved = solver.solve(&p);
+        let estimated = solver.estimate(p.as_slice(), &[], &options);
+        match (&solved, &estimated) {
+            (Ok(s), Ok((x, info))) => {
+                assert_eq!(s.x, *x, "the estimate is the solve's solution");
+                assert_eq!(info.iterations, 1, "one solve, not a loop of identical samples");
+                assert!(info.inlier_mask.iter().all(|&m| m), "noise-free rows are all inliers");
+                let [e_r, e_t] = errors(x, &truth);
+                assert!(e_r < 1e-6 && e_t < 1e-6, "{e_r} deg, {e_t} %");
+                agree += 1;
+            }
+            (Err(_), Err(simhc::solver::EstimateError::NotSolved { rows: 7, .. })) => {}
+            other => panic!("solve and estimate disagree: {other:?}"),
+        }
+    }
+    assert!(agree >= 9, "{agree} of {n} solved");
+}
+
+/// A correspondence given twice adds no equation: `solve` rejects it as degenerate input,
+/// naming the repeated row, and the estimator drops every sample that draws it twice (before
+/// 2026-12-05 such a sample was fitted and validated on fewer distinct rows than it needs).
+#[test]
+fn a_repeated_correspondence_is_degenerate_input_naming_its_row() {
+    use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
+    let seed = 45;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (mut p, _) = scene(&mut rng, 0.0);
+    let per_row = 12;
+    let row2: Vec<f64> = p.as_slice()[2 * per_row..3 * per_row].to_vec();
+    p.as_mut_slice()[5 * per_row..6 * per_row].copy_from_slice(&row2);
+    let solver = simhc::solver::Solver::new(GenRelPose::new()).expect("shipped weights");
+    match solver.solve(&p) {
+        Err(SolveError::Input(FirstRowsError::Degenerate(DegenerateInput { row: Some(5), reason }))) => {
+            assert!(reason.contains("repeated"), "{reason}")
+        }
+        other => panic!("not the repeated row's error: {other:?}"),
+    }
+    // The estimator on those 7 rows is the one solve of them: the same error, as a string.
+    let options = simhc::ransac::RansacOptions::poselib(1e-6);
+    let e = solver.estimate(p.as_slice(), &[], &options).expect_err("degenerate");
+    assert!(e.to_string().contains("row 5"), "{e}");
 }

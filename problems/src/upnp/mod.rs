@@ -2,11 +2,13 @@
 pub mod features;
 pub mod geometry;
 pub mod instance;
+pub mod learned;
 pub mod linear;
+pub mod pose;
 pub mod ransac;
 pub mod refine;
 pub mod scene;
-pub mod solver;
+pub mod simulator;
 mod system;
 
 pub use system::upnp::*;

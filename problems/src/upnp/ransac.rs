@@ -16,10 +16,11 @@
 //! needs 6 correspondences), validated on the sample.
 
 use super::geometry::{validate, UpnpError};
-use super::instance::{upnp_pose, UpnpLearned, UpnpLibrarySolver, UpnpProblem};
+use super::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
+use super::learned::UpnpLearned;
+use super::pose::UpnpPose;
 use super::refine::{levenberg_marquardt, LmOptions};
 use super::scene::UpnpCorrespondence;
-use super::solver::{UpnpPose, UpnpSolver};
 use crate::metrics::quat_from_rotation;
 use crate::robust::{self, RobustError};
 use simhc::pipeline::{Attempt, Method};
@@ -81,12 +82,12 @@ impl std::fmt::Debug for UpnpEstimator {
 pub const SAMPLE_ATTEMPTS: [Attempt; 1] = [Attempt { provider: 0, method: Method::GaussNewton }];
 
 impl UpnpEstimator {
-    /// An estimator whose samples are solved from `solver`'s network with the attempts of
+    /// An estimator whose samples are solved from `network` with the attempts of
     /// [`SAMPLE_ATTEMPTS`]; samples of 4 correspondences. `max_angle` is how far a sample's
     /// pose may miss its own correspondences (radians), as [`UpnpProblem::max_angle`]. An
     /// error when the network does not have UPnP's input rows and outputs.
-    pub fn new(solver: UpnpSolver, max_angle: f64) -> Result<Self, SolverError> {
-        Self::from_learned(UpnpLearned::new(solver.network().clone())?, max_angle)
+    pub fn new(network: simhc::regressor::FoldedNetwork, max_angle: f64) -> Result<Self, SolverError> {
+        Self::from_learned(UpnpLearned::new(network)?, max_angle)
     }
 
     /// [`UpnpEstimator::new`] around a learned start already built, e.g. a library solver's
@@ -187,7 +188,7 @@ mod tests {
     #[test]
     fn the_estimate_keeps_the_inliers_at_40_percent_outliers() {
         let (scene, inlier) = scene_with_outliers(7, 100, 0.4);
-        let estimator = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6).unwrap();
+        let estimator = UpnpEstimator::from_learned(UpnpLearned::shipped().unwrap(), 1e-6).unwrap();
         let options = RansacOptions { max_iterations: 300, ..RansacOptions::poselib(1e-4) };
         let (pose, info) = estimator.estimate(&scene.correspondences, &options).unwrap();
         let er = rotation_error_deg(&pose.rotation, &scene.rotation);
@@ -206,7 +207,7 @@ mod tests {
         let library = UpnpLibrarySolver::new(UpnpProblem::default()).unwrap();
         let shared = UpnpEstimator::from_learned(library.learned_start().clone(), 1e-6).unwrap();
         assert!(std::ptr::eq(shared.solver.learned_start().network(), library.learned_start().network()), "one copy of the weights");
-        let own = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6).unwrap();
+        let own = UpnpEstimator::from_learned(UpnpLearned::shipped().unwrap(), 1e-6).unwrap();
         let options = RansacOptions { max_iterations: 300, ..RansacOptions::poselib(1e-4) };
         let (a, info_a) = shared.estimate(&scene.correspondences, &options).unwrap();
         let (b, info_b) = own.estimate(&scene.correspondences, &options).unwrap();
@@ -218,7 +219,7 @@ mod tests {
     #[test]
     fn bad_input_names_the_correspondence() {
         let (mut scene, _) = scene_with_outliers(8, 20, 0.0);
-        let estimator = UpnpEstimator::new(UpnpSolver::new().unwrap(), 1e-6).unwrap();
+        let estimator = UpnpEstimator::from_learned(UpnpLearned::shipped().unwrap(), 1e-6).unwrap();
         let options = RansacOptions::poselib(1e-4);
         scene.correspondences[13].f.y = f64::NAN;
         assert_eq!(estimator.estimate(&scene.correspondences, &options).unwrap_err(), UpnpError::NonFinite { index: 13 }.into());

@@ -281,9 +281,9 @@ impl Registration for Upnp {
                     report.thresholds.rotation_deg
                 );
                 println!("flag: returned flagged as not validated; wrong: returned unflagged yet over the threshold");
-                let [first, second, fallback] = report.shipped_attempts;
-                println!("shipped solver, validated at: first start {first}, second start {second}, all-roots fallback {fallback}");
-                for row in [upnp::PRED_HC_ROW, upnp::SHIPPED_ROW, upnp::LIBRARY_ROW] {
+                let [linear, learned, fallback] = report.shipped_attempts;
+                println!("shipped solver, validated from: the linear start {linear}, the learned start {learned}, the all-roots fallback {fallback}");
+                for row in [upnp::PRED_HC_ROW, upnp::SHIPPED_ROW] {
                     if let Some(ratio) = stats::median_time_ratio(&report.rows, upnp::ALL_ROOTS_ROW, row) {
                         println!("median time, All-roots HC / {row}: {ratio:.1}x");
                     }

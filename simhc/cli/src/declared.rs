@@ -422,13 +422,17 @@ where
             layout
                 .unknowns
                 .iter()
-                .map(|f| (f.name.to_string(), serde_json::json!(&x.as_slice()[f.offset..f.offset + f.kind.len()])))
+                .map(|f| {
+                    let v = &x.as_slice()[f.offset..f.offset + f.kind.len()];
+                    // A scalar unknown is a number, a vector or quaternion an array.
+                    (f.name.to_string(), if f.kind == simhc::layout::FieldKind::Scalar { serde_json::json!(v[0]) } else { serde_json::json!(v) })
+                })
                 .collect::<serde_json::Map<_, _>>()
                 .into()
         };
         match solver.solve(&p) {
             Ok(s) => print_json(&serde_json::json!({
-                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": format!("{:?}", s.origin), "attempts": s.attempts, "check": format!("{:?}", s.check),
+                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": origin_json(&solver, s.origin), "attempts": s.attempts, "check": format!("{:?}", s.check),
             })),
             Err(SolveError::NotValidated { best, check, attempts }) => Err(format!(
                 "{}: no solution validated after {attempts} attempts (noise {}; pass --noise for noisy data); best, flagged, NOT a solution: {} (check {check:?})",
@@ -438,6 +442,22 @@ where
             )),
             Err(e) => Err(format!("{}: {e}", a.input.display())),
         }
+    }
+}
+
+/// What produced a solution, as JSON: `{"start": "learned 0", "method": "GaussNewton"}` for
+/// an attempt (the start by name, [`simhc::solver::StartId`]), `{"fallback": k}` for the
+/// all-roots fallback's candidate `k`.
+fn origin_json<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>(
+    solver: &Solver<S, NX, NF, NP, NC, ND>,
+    origin: Origin,
+) -> serde_json::Value
+where
+    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+{
+    match origin {
+        Origin::Path { provider, method } => serde_json::json!({ "start": solver.start_of(provider).to_string(), "method": format!("{method:?}") }),
+        Origin::Fallback { candidate } => serde_json::json!({ "fallback": candidate }),
     }
 }
 

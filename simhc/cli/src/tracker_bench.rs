@@ -212,7 +212,7 @@ pub fn upnp_rows(paths: usize, seed: u64, angle: f64) -> Vec<TrackerRow> {
         let r0 = random_rotation_perturbation(&scene.rotation, angle, &mut rng);
         let q0 = quat_from_rotation(&r0);
         let Ok(target) = upnp_system(&scene.correspondences) else { continue };
-        let Ok(m0) = simhc_problems::upnp::solver::simulate(&target, &scene.correspondences, q0) else { continue };
+        let Ok(m0) = simhc_problems::upnp::simulator::simulate(&target, &scene.correspondences, q0) else { continue };
         let line = CoefficientLine::<upnp::Upnp, f64, 66, 35>::new::<4, 5>(&upnp::params_of(&m0), &upnp::params_of(&target.m));
         let x0 = SVector::<f64, 4>::from(q0);
         let ok = |x: &SVector<f64, 4>| {

@@ -5,15 +5,18 @@ use nalgebra::Matrix3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use simhc::pipeline::Origin;
-use simhc::solver::SolveError as LibraryError;
-use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, rotation_from_quat, translation_error_pct};
+use nalgebra::SVector;
+use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartError, StartProvider};
+use simhc::solver::hypotheses::other_provider;
+use simhc::solver::{FirstRowsError, LearnedHypotheses, SolveError as LibraryError};
+use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, translation_error_pct};
 use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
-use simhc_problems::upnp::geometry::{translation_from_rotation, upnp_system};
-use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
+use simhc_problems::upnp::geometry::upnp_system;
+use simhc_problems::upnp::instance::{upnp_pose, LinearStart, UpnpLibrarySolver, UpnpProblem};
+use simhc_problems::upnp::learned::UpnpLearned;
+use simhc_problems::upnp::pose::{UpnpPose, UpnpValidation};
 use simhc_problems::upnp::refine::{levenberg_marquardt, LmOptions};
 use simhc_problems::upnp::scene::{PointBox, UpnpCorrespondence, UpnpScene, UpnpSceneConfig};
-use simhc_problems::upnp::solver::{Method as UpnpMethod, SolveError, StartKind, UpnpSolveReport, UpnpSolver, UpnpSolverOptions};
 use std::time::Instant;
 
 /// Success as in the paper's Table 1: rotation error below 2 degrees.
@@ -82,19 +85,18 @@ pub struct BenchReport {
     pub thresholds: Thresholds,
     /// Rows in the paper's order, then the linear start and the shipped solver.
     pub rows: Vec<Summary>,
-    /// How the shipped solver's poses were produced: the attempt that validated (1: the first
-    /// start, 2: the second start, 3: the all-roots fallback), counted over the trials.
+    /// How the shipped solver's poses were produced, counted over the trials: by an attempt
+    /// from the linear start, from the learned start, or by the all-roots fallback.
     pub shipped_attempts: [usize; 3],
 }
 
-/// The row of the shipped solver (starts, validation, fallback).
+/// The row of the shipped solver: the library solver a user calls ([`UpnpLibrarySolver`]:
+/// starts, validation, fallback).
 pub const SHIPPED_ROW: &str = "simhc UPnP solver (shipped)";
 /// The paper's row: one path from the regressor's start.
 pub const PRED_HC_ROW: &str = "Pred Initial + Simulator HC";
 /// The all-roots row.
 pub const ALL_ROOTS_ROW: &str = "All-roots HC (1 thread)";
-/// The bench row of the runtime's library solver on UPnP ([`UpnpLibrarySolver`]).
-pub const LIBRARY_ROW: &str = "simhc library solver (InstanceSolver)";
 
 /// Samples `n` seeded trials.
 pub fn sample_trials(options: &BenchOptions) -> Result<Vec<UpnpScene>, String> {
@@ -123,34 +125,57 @@ fn us(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e6
 }
 
-/// The outcome of a solver call: a validated pose, a flagged one (scored all the same), or none.
-fn solved(result: &Result<UpnpSolveReport, SolveError>, scene: &UpnpScene, micros: f64) -> Outcome {
-    let (report, flagged) = match result {
-        Ok(r) => (r, false),
-        Err(SolveError::NotValidated(r)) => (&**r, true),
+/// The outcome of a solve over the library solver's pipeline: a validated pose, a flagged one
+/// (scored all the same), or none; with the stage split of the attempt that produced it.
+fn solved(result: &PipelineOutcome, scene: &UpnpScene, micros: f64) -> Outcome {
+    let corrs = &scene.correspondences[..];
+    let (s, flagged) = match result {
+        Ok(s) => (s, false),
+        Err(PipelineError::NotValidated(s)) => (s, true),
         Err(_) => return failed(micros),
     };
-    let split = [us(report.times.start), us(report.times.simulator), us(report.times.tracking)];
-    Outcome { flagged, ..outcome(&report.pose.rotation, &report.pose.translation, scene, micros, Some(split)) }
+    let Some(pose) = upnp_pose(&s.x, corrs) else { return failed(micros) };
+    let split = [us(s.times.start), us(s.times.simulator), us(s.times.tracking)];
+    Outcome { flagged, ..outcome(&pose.rotation, &pose.translation, scene, micros, Some(split)) }
 }
 
+/// What one pipeline run of the UPnP library solver returns.
+type PipelineOutcome = Result<Solved<UpnpValidation, 4>, PipelineError<FirstRowsError, UpnpValidation, 4>>;
+
 /// A rotation start with its optimal translation.
-fn start_outcome(q: Result<[f64; 4], SolveError>, corrs: &[UpnpCorrespondence], scene: &UpnpScene, micros: f64) -> Outcome {
-    let pose = q.ok().and_then(|q| {
-        let r = rotation_from_quat(q);
-        translation_from_rotation(&r, corrs).ok().map(|t| (r, t))
-    });
-    match pose {
-        Some((r, t)) => outcome(&r, &t, scene, micros, None),
+fn start_outcome(q: Option<SVector<f64, 4>>, corrs: &[UpnpCorrespondence], scene: &UpnpScene, micros: f64) -> Outcome {
+    match q.and_then(|q| upnp_pose(&q, corrs)) {
+        Some(pose) => outcome(&pose.rotation, &pose.translation, scene, micros, None),
         None => failed(micros),
     }
 }
 
+/// A start given by the caller (the random rotation of "Rand Initial"), in the solver's slot 2.
+struct GivenStart(SVector<f64, 4>);
+
+impl StartProvider<[UpnpCorrespondence], 4> for GivenStart {
+    fn name(&self) -> &'static str {
+        "given"
+    }
+    fn start(&self, _: &[UpnpCorrespondence]) -> Result<SVector<f64, 4>, StartError> {
+        Ok(self.0)
+    }
+}
+
+/// Every row is a schedule over one solver, the library solver a user calls
+/// ([`UpnpLibrarySolver`]): its providers are the learned start (slot 0), the caller's start
+/// (slot 2) and the linear start ([`other_provider`]).
+const LEARNED: usize = 0;
+const GIVEN: usize = 2;
+const LINEAR: usize = other_provider(1, 0);
+const fn one_path(provider: usize) -> [Attempt; 1] {
+    [Attempt { provider, method: Method::SimulatorHc }]
+}
+
 /// Runs every row on the same trials, single-threaded.
 pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progress: bool) -> Result<BenchReport, String> {
-    let shipped = UpnpSolver::new().map_err(|e| format!("loading the shipped regressor: {e}"))?;
-    let pred_path = shipped.clone().with_options(UpnpSolverOptions::single_path(StartKind::Regressor));
-    let linear_path = shipped.clone().with_options(UpnpSolverOptions::single_path(StartKind::Linear));
+    let solver = UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| format!("loading the shipped regressor: {e}"))?;
+    let learned = solver.learned_start();
     let mut start_rng = ChaCha8Rng::seed_from_u64(options.seed.wrapping_add(1));
     let mut pred = MethodRecord::new("Pred Initial");
     let mut pred_lm = MethodRecord::new("Pred Initial + LM");
@@ -160,27 +185,22 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
     let mut linear_hc = MethodRecord::new("Linear Initial + Simulator HC");
     let mut full = MethodRecord::new(SHIPPED_ROW);
     let mut all_roots = MethodRecord::new(ALL_ROOTS_ROW);
-    let library_solver = UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| e.to_string())?;
-    let mut library = MethodRecord::new(LIBRARY_ROW);
     let mut shipped_attempts = [0usize; 3];
     let all_roots_options = simhc::all_roots::AllRootsOptions::default();
     let bar = crate::app::progress_bar(trials.len() as u64, progress);
+    let first = |corrs: &[UpnpCorrespondence]| learned.rank(corrs).ok().map(|r| r.x[0]);
     for scene in trials {
         let corrs: &[UpnpCorrespondence] = &scene.correspondences;
 
         // Pred Initial: the regressor's rotation with its optimal translation.
         let t0 = Instant::now();
-        let q0 = shipped.predict(corrs);
+        let q0 = first(corrs);
         let micros = us(t0.elapsed());
         pred.outcomes.push(start_outcome(q0, corrs, scene, micros));
 
         // Pred Initial + LM: local refinement of the object-space cost from the prediction.
         let t0 = Instant::now();
-        let refined = shipped.predict(corrs).ok().and_then(|q| {
-            let r = rotation_from_quat(q);
-            let t = translation_from_rotation(&r, corrs).ok()?;
-            Some(levenberg_marquardt(&r, &t, corrs, &LmOptions::default()))
-        });
+        let refined = first(corrs).and_then(|q| upnp_pose(&q, corrs)).map(|p| levenberg_marquardt(&p.rotation, &p.translation, corrs, &LmOptions::default()));
         let micros = us(t0.elapsed());
         pred_lm.outcomes.push(match refined {
             Some(lm) => outcome(&lm.rotation, &lm.translation, scene, micros, None),
@@ -188,52 +208,34 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
         });
 
         // Rand Initial + Simulator HC (the random start is drawn outside the timing).
-        let q_rand = random_unit_quaternion(&mut start_rng);
+        let given = GivenStart(SVector::from(random_unit_quaternion(&mut start_rng)));
         let t0 = Instant::now();
-        let result = shipped.solve_from(corrs, q_rand);
+        let result = solver.run_pipeline(corrs, &one_path(GIVEN), false, Some(&given));
         rand_hc.outcomes.push(solved(&result, scene, us(t0.elapsed())));
 
         // Pred Initial + Simulator HC: the paper's one path from the regressor.
         let t0 = Instant::now();
-        let result = pred_path.solve_report(corrs);
+        let result = solver.run_pipeline(corrs, &one_path(LEARNED), false, None);
         pred_hc.outcomes.push(solved(&result, scene, us(t0.elapsed())));
 
         // Linear Initial, and one path from it.
         let t0 = Instant::now();
-        let q0 = shipped.linear_start(corrs);
+        let q0 = LinearStart.start(corrs).ok();
         let micros = us(t0.elapsed());
         linear.outcomes.push(start_outcome(q0, corrs, scene, micros));
         let t0 = Instant::now();
-        let result = linear_path.solve_report(corrs);
+        let result = solver.run_pipeline(corrs, &one_path(LINEAR), false, None);
         linear_hc.outcomes.push(solved(&result, scene, us(t0.elapsed())));
 
-        // The shipped solver: starts in order, validation, all-roots fallback.
+        // The shipped solve: the solver's own schedule, validation, all-roots fallback.
         let t0 = Instant::now();
-        let result = shipped.solve_report(corrs);
+        let result = solver.run_pipeline(corrs, solver.schedule(), true, None);
         full.outcomes.push(solved(&result, scene, us(t0.elapsed())));
-        if let Ok(r) = &result {
-            // By what produced the pose: a start with no path (a failed linear start) is not an
-            // attempt, so the attempt count does not say which start it was.
-            let slot = match r.method {
-                UpnpMethod::AllRoots => 2,
-                UpnpMethod::SimulatorHc => shipped.options.starts.iter().position(|s| *s == Some(r.start_kind)).unwrap_or(0).min(1),
-            };
-            shipped_attempts[slot] += 1;
+        match result.as_ref().map(|s| s.origin) {
+            Ok(Origin::Path { provider, .. }) => shipped_attempts[usize::from(provider != LINEAR)] += 1,
+            Ok(Origin::Fallback { .. }) => shipped_attempts[2] += 1,
+            Err(_) => {}
         }
-
-        // The runtime's library solver: the same assembly as every declared problem.
-        let t0 = Instant::now();
-        let result = library_solver.solve(corrs);
-        let micros = us(t0.elapsed());
-        let pose = match &result {
-            Ok(s) => upnp_pose(&s.x, corrs).map(|p| (p, false)),
-            Err(LibraryError::NotValidated { best, .. }) => upnp_pose(best, corrs).map(|p| (p, true)),
-            Err(_) => None,
-        };
-        library.outcomes.push(match pose {
-            Some((p, flagged)) => Outcome { flagged, ..outcome(&p.rotation, &p.translation, scene, micros, None) },
-            None => failed(micros),
-        });
 
         // All-roots HC: every path of the Lagrange system from the shipped start system, the
         // real solution closest to the ground truth kept (the paper's choice).
@@ -249,19 +251,15 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
             };
             best_real_solution(result, Selection::MinScore(&score)).map(|s| (sys, s))
         });
-        all_roots.outcomes.push(match best {
-            Some((sys, s)) => {
-                let n = (s.x[0] * s.x[0] + s.x[1] * s.x[1] + s.x[2] * s.x[2] + s.x[3] * s.x[3]).sqrt();
-                let q = [s.x[0] / n, s.x[1] / n, s.x[2] / n, s.x[3] / n];
-                outcome(&rotation_from_quat(q), &sys.translation(q), scene, micros, None)
-            }
+        all_roots.outcomes.push(match best.and_then(|(sys, s)| UpnpPose::of_quaternion(sys, [s.x[0], s.x[1], s.x[2], s.x[3]])) {
+            Some(pose) => outcome(&pose.rotation, &pose.translation, scene, micros, None),
             None => failed(micros),
         });
         bar.inc(1);
     }
     bar.finish_and_clear();
     let rows: Vec<Summary> =
-        [pred, pred_lm, rand_hc, pred_hc, linear, linear_hc, full, library, all_roots].iter().map(|m| m.summary(&THRESHOLDS)).collect();
+        [pred, pred_lm, rand_hc, pred_hc, linear, linear_hc, full, all_roots].iter().map(|m| m.summary(&THRESHOLDS)).collect();
     Ok(BenchReport { problem: "upnp", seed: options.seed, trials: trials.len(), source, thresholds: THRESHOLDS, rows, shipped_attempts })
 }
 
@@ -269,7 +267,6 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
 /// (`{"correspondences": [{"p": [..], "f": [..], "v": [..]}, ..]}`, or a bare array of them),
 /// by the UPnP library solver ([`UpnpLibrarySolver`]).
 pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
-    use simhc::solver::hypotheses::other_provider;
     let corrs: Vec<UpnpCorrespondence> = simhc_problems::input::parse_correspondences(text).map_err(|e| e.to_string())?;
     let solver = UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| format!("loading the shipped regressor: {e}"))?;
     // A pose that did not validate is printed with `"validated": false`, never as a plain pose.
@@ -281,7 +278,7 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
     let pose = upnp_pose(&x, &corrs).ok_or("the end point has no pose (a zero quaternion)")?;
     let (start, method) = match origin {
         Some(Origin::Path { provider, method }) => {
-            let start = if provider == other_provider(1, 0) { "linear" } else { "learned" };
+            let start = if provider == LINEAR { "linear" } else { "learned" };
             (start, format!("{method:?}"))
         }
         Some(Origin::Fallback { .. }) => ("all roots", "AllRoots".to_string()),
@@ -310,14 +307,15 @@ pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<Vec<crate::ransac::Ransac
     use simhc_problems::upnp::ransac::UpnpEstimator;
     crate::ransac::check(a, simhc_problems::upnp::geometry::UPNP_MIN_CORRESPONDENCES)?;
     let scenes = UpnpSceneConfig { points: a.rows, noise_px: a.noise, ..UpnpSceneConfig::default() };
-    let solver = match &a.weights {
+    let learned = match &a.weights {
         Some(path) => {
             let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-            UpnpSolver::with_network(simhc::regressor::FoldedNetwork::from_bytes(&bytes).map_err(|e| format!("{}: {e}", path.display()))?)
+            let network = simhc::regressor::FoldedNetwork::from_bytes(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+            UpnpLearned::new(network).map_err(|e| format!("{}: {e}", path.display()))?
         }
-        None => UpnpSolver::new().map_err(|e| e.to_string())?,
+        None => UpnpLearned::shipped().map_err(|e| e.to_string())?,
     };
-    let estimator = UpnpEstimator::new(solver, (8.0 * a.noise / scenes.focal_px).max(1e-6)).map_err(|e| e.to_string())?;
+    let estimator = UpnpEstimator::from_learned(learned, (8.0 * a.noise / scenes.focal_px).max(1e-6)).map_err(|e| e.to_string())?;
     crate::ransac::rows_of(a, |rng, ratio, seed| {
         let mut scene = scenes.sample(rng).map_err(|e| e.to_string())?;
         let inlier = crate::ransac::draw_inliers(rng, a.rows, ratio);

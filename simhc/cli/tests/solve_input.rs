@@ -82,6 +82,22 @@ fn solve_grps_says_when_the_data_is_minimal() {
     }
 }
 
+/// A declared problem's answer in JSON: a scalar unknown (GRPS's scale) is a number, a vector
+/// an array, and the origin names the start and the method (or the fallback's candidate).
+#[test]
+fn solve_of_a_declared_problem_prints_json_values() {
+    let path = write("grps8_declared.json", &grps_input(8, 5));
+    let (ok, out, err) = simhc(&["solve", "grps8", "--input", path.to_str().expect("utf-8 path")]);
+    assert!(ok, "stderr: {err}");
+    let doc: serde_json::Value = serde_json::from_str(&out).expect("JSON output");
+    assert_eq!(doc["validated"], serde_json::Value::Bool(true), "{out}");
+    let s = doc["unknowns"]["s"].as_f64().expect("the scale is a number");
+    assert!(s.is_finite() && s > 0.0, "{out}");
+    assert_eq!(doc["unknowns"]["t"].as_array().map(|t| t.len()), Some(3), "{out}");
+    let origin = &doc["origin"];
+    assert!((origin["start"].is_string() && origin["method"].is_string()) || origin["fallback"].is_u64(), "{out}");
+}
+
 #[test]
 fn bad_solve_inputs_say_where() {
     let cases = [

@@ -102,6 +102,15 @@ pub enum EstimateError {
         /// Samples drawn.
         iterations: usize,
     },
+    /// Exactly one sample's worth of rows: the one solve of them ([`Solver::solve`], fallback
+    /// included) gave no validated solution; why.
+    #[error("{rows} correspondences make one sample, and its solve gave no validated solution: {reason}")]
+    NotSolved {
+        /// Rows given (the sample size).
+        rows: usize,
+        /// The solve's error.
+        reason: String,
+    },
 }
 
 /// The equations of one row (`row`: its numbers, `globals`: the global numbers) at `x` and
@@ -385,7 +394,41 @@ where
         }
         let data: Vec<&[f64]> = rows.chunks_exact(per_row).collect();
         let samples = Samples::<S, NX, NF, NP, NC, ND> { solver: self, globals, threshold: options.threshold, sizes: PhantomData };
+        if n == layout.rows {
+            return self.estimate_one_sample(&samples, &data, rows, globals);
+        }
         let r = ransac(&samples, &data, options).ok_or(EstimateError::NoModel { iterations: options.max_iterations })?;
         Ok(EstimateInfo::split(r))
+    }
+
+    /// With exactly one sample's worth of rows every draw is the same sample: RANSAC would
+    /// draw it up to `max_iterations` times and, as a sample gets only Gauss-Newton from the
+    /// learned start, fail where a solve succeeds. So it is solved once, as [`Solver::solve`]
+    /// does (every start, the fallback), and scored like a RANSAC model.
+    fn estimate_one_sample(
+        &self,
+        samples: &Samples<'_, S, NX, NF, NP, NC, ND>,
+        data: &[&[f64]],
+        rows: &[f64],
+        globals: &[f64],
+    ) -> Result<(SVector<f64, NX>, EstimateInfo), EstimateError> {
+        let mut p = SVector::<f64, ND>::zeros();
+        p.as_mut_slice()[..rows.len()].copy_from_slice(rows);
+        p.as_mut_slice()[rows.len()..].copy_from_slice(globals);
+        let x = self.solve(&p).map_err(|e| EstimateError::NotSolved { rows: data.len(), reason: e.to_string() })?.x;
+        let t2 = samples.threshold * samples.threshold;
+        let errors: Vec<f64> = data.iter().map(|row| samples.residual(&x, row)).collect();
+        let inlier_mask: Vec<bool> = errors.iter().map(|e| *e <= samples.threshold).collect();
+        let inliers: Vec<usize> = (0..data.len()).filter(|&i| inlier_mask[i]).collect();
+        let info = EstimateInfo {
+            iterations: 1,
+            hypotheses: 1,
+            inlier_ratio: inliers.len() as f64 / data.len() as f64,
+            inliers,
+            inlier_mask,
+            score: errors.iter().map(|e| (e * e).min(t2)).sum(),
+            refinements: 0,
+        };
+        Ok((x, info))
     }
 }

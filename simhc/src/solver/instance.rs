@@ -258,6 +258,7 @@ where
         if let Some(index) = p.iter().position(|v| !v.is_finite()) {
             return Err(NonFiniteParameter::locate(&S::Data::LAYOUT, index).into());
         }
+        repeated_row(&S::Data::LAYOUT, p.as_slice())?;
         Ok(self.check_input(p)?)
     }
     fn tracked_params(&self, p: &SVector<f64, ND>) -> Result<SVector<f64, NP>, FirstRowsError> {
@@ -286,6 +287,28 @@ where
     fn fallback_candidates(&self, p: &SVector<f64, ND>, _target: &SVector<f64, NP>) -> Vec<SVector<f64, NX>> {
         self.all_roots().map(|r| r.candidates(p)).unwrap_or_default()
     }
+}
+
+/// A row with the same numbers as an earlier one: it adds no equation, so the system is
+/// underdetermined (a singular Jacobian at every point) and, worse, a validating row that
+/// repeats a tracked row validates nothing (a RANSAC sample that draws one correspondence
+/// twice would be accepted on a pose fitted to fewer rows). Every row-wise problem rejects it,
+/// naming the later row. `layout.rows` is small (a data instance), so the pairs are few.
+fn repeated_row(layout: &crate::layout::Layout, p: &[f64]) -> Result<(), super::parts::DegenerateInput> {
+    let per_row = layout.per_row;
+    if per_row == 0 {
+        return Ok(());
+    }
+    let row = |i: usize| &p[i * per_row..(i + 1) * per_row];
+    for j in 1..layout.rows {
+        if (0..j).any(|i| row(i) == row(j)) {
+            return Err(super::parts::DegenerateInput {
+                row: Some(j),
+                reason: "the same numbers as an earlier row (a repeated correspondence adds no equation)",
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The problem's tracked parameters of the data ([`InstanceProblem::tracked_params`]).

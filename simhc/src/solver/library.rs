@@ -181,6 +181,36 @@ pub enum SolveError<C: Debug, const NX: usize> {
     },
 }
 
+/// A start of a solve, by name ([`InstanceSolver::start_of`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StartId {
+    /// Learned hypothesis `rank` (0: the first-ranked), as predicted or refined on all the data.
+    Learned {
+        /// Its rank among the hypotheses.
+        rank: usize,
+        /// Whether it was refined on all the data first.
+        refined: bool,
+    },
+    /// The caller's start ([`InstanceSolver::run_pipeline`]'s `extra`).
+    Given,
+    /// The problem's `j`-th other start ([`InstanceProblem::extra_starts`]).
+    Other(usize),
+    /// Restart `k` around the first-ranked hypothesis.
+    Restart(usize),
+}
+
+impl std::fmt::Display for StartId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StartId::Learned { rank, refined: false } => write!(f, "learned {rank}"),
+            StartId::Learned { rank, refined: true } => write!(f, "learned {rank}, refined"),
+            StartId::Given => write!(f, "given"),
+            StartId::Other(j) => write!(f, "other {j}"),
+            StartId::Restart(k) => write!(f, "restart {k}"),
+        }
+    }
+}
+
 /// Most other starts, and most other simulators, a problem may bring
 /// ([`DeclaredProblem::other_starts`], [`DeclaredProblem::other_simulators`]): a solve holds
 /// them in fixed arrays, without allocation.
@@ -335,6 +365,27 @@ where
     /// [`super::restarts::restart_provider`] say).
     pub fn schedule(&self) -> &[Attempt] {
         &self.schedule
+    }
+
+    /// Which start a provider slot of [`InstanceSolver::run_pipeline`] holds, by name (an
+    /// [`Origin::Path`]'s `provider`): a learned hypothesis (plain or refined on all the data),
+    /// the caller's start, one of the problem's other starts, or a restart.
+    pub fn start_of(&self, provider: usize) -> StartId {
+        let (count, others) = (self.learned.hypotheses().max(1), self.other_starts.len());
+        if provider == 2 {
+            return StartId::Given;
+        }
+        if let Some(rank) = (0..count).find(|&r| super::hypotheses::provider(r, false) == provider) {
+            return StartId::Learned { rank, refined: false };
+        }
+        if let Some(rank) = (0..count).find(|&r| super::hypotheses::provider(r, true) == provider) {
+            return StartId::Learned { rank, refined: true };
+        }
+        let first_other = super::hypotheses::other_provider(count, 0);
+        if (first_other..first_other + others).contains(&provider) {
+            return StartId::Other(provider - first_other);
+        }
+        StartId::Restart(provider.saturating_sub(super::restarts::restart_provider(count, others, 0)))
     }
 
     /// Solves the data (all rows, the data layout's order for a row-wise problem): a validated

@@ -343,8 +343,8 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
         // mean fell from 1011 to 85 us at the same median (`grp bench grp --trials 1000 --seed
         // 1`). The context stage (every row also reads the pooled features of all rows) raised
         // one path from 54.9 to 61.8 % and Gauss-Newton on all rows from 77.4 to 82.6 % on those
-        // trials (BENCHMARKS.md, 2026-12-04).
-        LearnedStartConfig { samples: 100_000, hypotheses: 8, context_after: 1, ..LearnedStartConfig::default() }
+        // trials (BENCHMARKS.md, 2026-12-04). Those are the trainer's defaults since 2026-12-05.
+        LearnedStartConfig::default()
     }
     const REFINES: bool = true;
     fn refine(&self, p: &Params, x0: &Unknowns) -> Refinement<7> {

@@ -250,6 +250,18 @@ pub fn train_with_hook<H: FeatureHook>(
     samples: usize,
     mut scene: impl FnMut(usize, &mut ChaCha8Rng) -> H::Scene,
 ) -> Result<HookTrained, LearnedStartError> {
+    // Drawing the scenes takes a while before the first training step: show it.
+    let bar = if train.progress {
+        indicatif::ProgressBar::new(samples as u64).with_style(
+            indicatif::ProgressStyle::default_bar().template("{elapsed_precise} [{bar:30}] {pos}/{len} scenes drawn").expect("valid template"),
+        )
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let mut scene = |i: usize, rng: &mut ChaCha8Rng| {
+        bar.inc(1);
+        scene(i, rng)
+    };
     let (data, standardization) = match hook.standardize() {
         Standardize::No => (scene_dataset(hook, samples, train.seed, scene)?, None),
         Standardize::AllBut(raw) => {
@@ -284,6 +296,7 @@ pub fn train_with_hook<H: FeatureHook>(
             (data, Some((in_std, out_std)))
         }
     };
+    bar.finish_and_clear();
     let (model, run) = train_with_loss(model, &data, train, |p, t| hook.sample_losses(p, t).mean());
     Ok(HookTrained { model, run, standardization })
 }

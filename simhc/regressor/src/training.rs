@@ -225,6 +225,12 @@ where
             model = optim.step(lr, model, grads);
             step += 1;
             bar.inc(1);
+            // The running loss from the first steps on, not only after a whole epoch (an epoch
+            // of 100,000 scenes takes minutes on two cores).
+            if step % 50 == 0 {
+                let done = step - epoch * steps_per_epoch;
+                bar.set_message(format!("epoch {}/{} loss {:.5}", epoch + 1, config.epochs, loss_sum / done as f64));
+            }
         }
         let mean = loss_sum / steps_per_epoch as f64;
         bar.set_message(format!("epoch {}/{} loss {mean:.5}", epoch + 1, config.epochs));

@@ -32,6 +32,9 @@ fn small_training(seed: u64, samples: usize, epochs: usize) -> LearnedStartConfi
         head_widths: vec![64],
         samples,
         train: TrainConfig { epochs, batch_size: 64, learning_rate: 3e-3, final_learning_rate: 3e-5, seed, progress: false },
+        // One hypothesis and no context stage: what these tests measure is the plain network.
+        hypotheses: 1,
+        context_after: 0,
         ..LearnedStartConfig::default()
     }
 }

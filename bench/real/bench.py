@@ -1,7 +1,7 @@
 """KITTI seq 00's stereo rig: simhc and PoseLib on identical correspondences (issue 45).
 
     python bench/real/bench.py [--gaps 1,3,5] [--stride 1] [--max-pairs N] [--seed 1]
-                               [--rel-px 1] [--abs-px 3] [--noise-px 1] [--scale baseline]
+                               [--rel-px 1] [--abs-px 3] [--noise-px 1] [--scale depth]
                                [--grps-scale 2] [--problems relpose,grps,upnp] [--json OUT]
                                [--plot target/figures] [--max-corr N]
 
@@ -15,7 +15,9 @@ cameras drawn with the seed) and runs:
 Errors against the GTSAM stereo BA (`kitti.py`, cached) and the shipped VO poses. Success:
 E_R < 1 deg and (translation direction < 5 deg or E_t < 5 % of the motion). Times: one call's
 wall time from Python, median. `--scale`: simhc's input similarity (`solvers.py`): `none`
-(metres), `baseline` (L = baseline / 2: cameras at +-1) or a length in metres.
+(metres), `baseline` (L = baseline / 2: cameras at +-1), `depth` (the default: L = the median
+distance of the pair's landmarks, triangulated in frame i, from the rig centre, so that the
+scene is at unit distance; see `starts.py` for why) or a length in metres.
 """
 
 import argparse
@@ -45,7 +47,7 @@ def parse_args(argv=None):
     ap.add_argument("--rel-px", type=float, default=1.0, help="inlier threshold (px) for relpose and grps, both solvers")
     ap.add_argument("--abs-px", type=float, default=3.0, help="inlier threshold (px) for upnp, both solvers")
     ap.add_argument("--noise-px", type=float, default=1.0, help="simhc's sample tolerance `noise` (px at KITTI's focal)")
-    ap.add_argument("--scale", default="baseline", help="simhc input scaling: none, baseline, or metres")
+    ap.add_argument("--scale", default="depth", help="simhc input unit: none (metres), baseline (half of it), depth (median point distance), or metres")
     ap.add_argument("--grps-scale", type=float, default=2.0, help="known scale applied to frame j's offsets for the second GRPS run")
     ap.add_argument("--problems", default=",".join(PROBLEMS))
     ap.add_argument("--max-corr", type=int, default=None, help="at most this many correspondences per pair")
@@ -73,11 +75,11 @@ def parse_args(argv=None):
     a.scale_name = a.scale
     if a.scale == "none":
         a.scale = None
-    elif a.scale != "baseline":
+    elif a.scale not in ("baseline", "depth"):
         try:
             a.scale = float(a.scale)
         except ValueError:
-            ap.error(f"--scale {a.scale!r}: expected none, baseline or a length in metres")
+            ap.error(f"--scale {a.scale!r}: expected none, baseline, depth or a length in metres")
         if not a.scale > 0:
             ap.error("--scale must be > 0")
     return a
@@ -93,10 +95,20 @@ def select_pairs(n_frames, a, rng):
     return out
 
 
+def input_scale(scale, calib, pair):
+    """simhc's input unit L (metres) for `--scale`: None (metric), half the baseline, the median
+    distance of frame i's triangulated points from the rig centre (`depth`), or a number."""
+    if scale == "baseline":
+        return calib.baseline / 2
+    if scale == "depth":
+        return float(np.median(np.linalg.norm(pair.points - [calib.baseline / 2, 0, 0], axis=1)))
+    return scale
+
+
 def run_pair(data, refs, i, j, a, rng, seed):
     """All solvers on one pair; a list of records (one per problem variant and solver)."""
     pair = correspondences.build(data, i, j, rng, a.max_corr)
-    scale = data.calib.baseline / 2 if a.scale == "baseline" else a.scale
+    scale = input_scale(a.scale, data.calib, pair)
     base = {"i": i, "j": j, "frame_i": int(data.ids[i]), "frame_j": int(data.ids[j]), "gap": j - i, "n": len(pair.f1)}
     runs = []
     if len(pair.f1) < 7:

@@ -88,8 +88,10 @@ def load():
     return Kitti(Calibration(*c), ids, p[:, 1:].reshape(-1, 4, 4), f)
 
 
-def bundle_adjust(data, verbose=True):
-    """Stereo BA of all factors (GTSAM, LM); returns (F, 4, 4) camera-to-world poses."""
+def bundle_adjust(data, verbose=True, positions=None):
+    """Stereo BA of all factors (GTSAM, LM); returns (F, 4, 4) camera-to-world poses.
+    `positions`: only these frames (by position) and their factors, the first one fixed (a
+    windowed BA of seconds, for the test); the poses of the other frames are returned as VO's."""
     import gtsam
     from gtsam.symbol_shorthand import L, X
 
@@ -98,16 +100,18 @@ def bundle_adjust(data, verbose=True):
     noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(HUBER_K), gtsam.noiseModel.Isotropic.Sigma(3, 1.0))
     graph = gtsam.NonlinearFactorGraph()
     values = gtsam.Values()
-    for k, fid in enumerate(data.ids):
-        values.insert(X(int(fid)), gtsam.Pose3(data.vo[k]))
-    pose_of = {int(fid): data.vo[k] for k, fid in enumerate(data.ids)}
-    for r in data.factors:
+    keep = list(range(len(data.ids))) if positions is None else sorted(set(positions))
+    for k in keep:
+        values.insert(X(int(data.ids[k])), gtsam.Pose3(data.vo[k]))
+    pose_of = {int(data.ids[k]): data.vo[k] for k in keep}
+    rows = data.factors if positions is None else data.factors[np.isin(data.factors[:, 0], data.ids[keep])]
+    for r in rows:
         fid, lid = int(r[0]), int(r[1])
         graph.add(gtsam.GenericStereoFactor3D(gtsam.StereoPoint2(r[2], r[3], r[4]), noise, X(fid), L(lid), K))
         if not values.exists(L(lid)):
             T = pose_of[fid]
             values.insert(L(lid), T[:3, :3] @ r[5:8] + T[:3, 3])
-    first = int(data.ids[0])
+    first = int(data.ids[keep[0]])
     graph.add(gtsam.NonlinearEqualityPose3(X(first), values.atPose3(X(first))))
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(100)
@@ -115,9 +119,12 @@ def bundle_adjust(data, verbose=True):
     e0 = graph.error(values)
     result = gtsam.LevenbergMarquardtOptimizer(graph, values, params).optimize()
     if verbose:
-        print(f"reference BA: {len(data.factors)} stereo factors, {len(data.ids)} poses, error {e0:.1f} -> "
+        print(f"reference BA: {len(rows)} stereo factors, {len(keep)} poses, error {e0:.1f} -> "
               f"{graph.error(result):.1f} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    return np.array([result.atPose3(X(int(fid))).matrix() for fid in data.ids])
+    out = data.vo.copy()
+    for k in keep:
+        out[k] = result.atPose3(X(int(data.ids[k]))).matrix()
+    return out
 
 
 def reference(data, force=False, verbose=True):

@@ -65,7 +65,8 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
     R = np.array(pose.R)
     s = float(pose.s) if grps else 1.0
     t = L * np.array(pose.t) - s * R @ c2 + c1
-    return {"ok": True, "R": R, "t": t, "s": s if grps else None, "mask": np.asarray(info["inlier_mask"], bool), "ms": ms, "error": None}
+    return {"ok": True, "R": R, "t": t, "s": s if grps else None, "mask": np.asarray(info["inlier_mask"], bool), "ms": ms, "error": None,
+            "iterations": int(info["iterations"]), "models": int(info["models"])}
 
 
 def simhc_upnp(pair, calib, px, noise_px, seed, scale):
@@ -83,7 +84,8 @@ def simhc_upnp(pair, calib, px, noise_px, seed, scale):
     ms = (time.perf_counter() - t0) * 1e3
     R = np.array(pose.R)
     t = L * np.array(pose.t) - R @ c + c
-    return {"ok": True, "R": R, "t": t, "s": None, "mask": np.asarray(info["inlier_mask"], bool), "ms": ms, "error": None}
+    return {"ok": True, "R": R, "t": t, "s": None, "mask": np.asarray(info["inlier_mask"], bool), "ms": ms, "error": None,
+            "iterations": int(info["iterations"]), "models": int(info["models"])}
 
 
 # ---------------------------------------------------------------- PoseLib
@@ -124,7 +126,7 @@ def poselib_relpose(pair, calib, px):
         return _failed(ms, "no inliers", len(pair.f1))
     # PoseLib's pose maps rig i to rig j (X_j = R X_i + t); ours is its inverse.
     R, t = np.array(pose.R), np.array(pose.t)
-    return {"ok": True, "R": R.T, "t": -R.T @ t, "s": None, "mask": mask, "ms": ms, "error": None}
+    return {"ok": True, "R": R.T, "t": -R.T @ t, "s": None, "mask": mask, "ms": ms, "error": None, "iterations": int(info["iterations"])}
 
 
 def poselib_upnp(pair, calib, px):
@@ -140,7 +142,7 @@ def poselib_upnp(pair, calib, px):
         mask[k] = np.asarray(inl, bool)
     if not mask.any():
         return _failed(ms, "no inliers", len(pair.points))
-    return {"ok": True, "R": np.array(pose.R), "t": np.array(pose.t), "s": None, "mask": mask, "ms": ms, "error": None}
+    return {"ok": True, "R": np.array(pose.R), "t": np.array(pose.t), "s": None, "mask": mask, "ms": ms, "error": None, "iterations": int(info["iterations"])}
 
 
 # ---------------------------------------------------------------- errors
@@ -152,14 +154,20 @@ def truth(problem, T_i, T_j):
     return M[:3, :3], M[:3, 3]
 
 
+def rotation_angle(M):
+    """The angle (deg) of a rotation matrix, accurate near 0 (atan2, not arccos)."""
+    w = np.array([M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]])
+    return float(np.degrees(np.arctan2(np.linalg.norm(w) / 2, (np.trace(M) - 1) / 2)))
+
+
 def errors(res, Rg, tg, sg=None):
     """E_R (deg), E_t (% of the motion), translation direction (deg), E_s (%), success."""
     if not res["ok"]:
         return {"ok": False, "success": False, "e_R": np.nan, "e_t": np.nan, "e_dir": np.nan, "e_s": np.nan}
     R, t = res["R"], res["t"]
-    e_R = np.degrees(np.arccos(np.clip((np.trace(R @ Rg.T) - 1) / 2, -1, 1)))
+    e_R = rotation_angle(R @ Rg.T)
     e_t = 100 * np.linalg.norm(t - tg) / np.linalg.norm(tg)
-    e_dir = np.degrees(np.arccos(np.clip(t @ tg / (np.linalg.norm(t) * np.linalg.norm(tg) + 1e-300), -1, 1)))
+    e_dir = float(np.degrees(np.arctan2(np.linalg.norm(np.cross(t, tg)), t @ tg)))
     e_s = 100 * abs(res["s"] - sg) / sg if (sg is not None and res["s"] is not None) else np.nan
     success = bool(e_R < 1 and (e_dir < 5 or e_t < 5))
     return {"ok": True, "success": success, "e_R": e_R, "e_t": e_t, "e_dir": e_dir, "e_s": e_s}

@@ -32,6 +32,29 @@ import solvers  # noqa: E402
 import simhc  # noqa: E402
 
 
+def clean(pair, Rg, tg, rng, sigma=0.0, rig=1.0):
+    """The pair with its bearings recomputed from the landmarks and the reference pose, exactly
+    (`sigma` = 0) or with isotropic angular noise `sigma` (radians): KITTI's geometry without its
+    measurement noise. `rig` multiplies the camera offsets (a wider rig seeing the same points)."""
+    import copy
+
+    q = copy.copy(pair)
+    q.v1, q.v2 = pair.v1 * rig, pair.v2 * rig
+    X = pair.points  # frame i's left camera = rig i
+    X2 = (Rg.T @ (X - tg).T).T  # the same points in rig j (X_i = R X_j + t)
+
+    def bear(d):
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        if sigma > 0:
+            n = rng.normal(0, sigma, d.shape)
+            d = d + n - d * np.sum(d * n, axis=1, keepdims=True)
+            d /= np.linalg.norm(d, axis=1, keepdims=True)
+        return d
+
+    q.f1, q.f2 = bear(X - q.v1), bear(X2 - q.v2)
+    return q
+
+
 def synthetic(n, seed):
     """models / iterations of simhc on the peers harness's synthetic scenes (no outliers, 1 px)."""
     import robust_grp
@@ -64,6 +87,10 @@ def main():
     ap.add_argument("--rel-px", type=float, default=1.0)
     ap.add_argument("--abs-px", type=float, default=3.0)
     ap.add_argument("--problems", default="relpose,grps,upnp")
+    ap.add_argument("--geometry", default="real", choices=["real", "clean", "clean1px"],
+                    help="real: the measured pixels; clean: bearings recomputed exactly from the landmarks and the "
+                         "reference BA pose (no noise, no wrong match); clean1px: the same with 1 px of angular noise")
+    ap.add_argument("--rig", type=float, default=1.0, help="with clean geometry: multiply the baseline by this")
     a = ap.parse_args()
     if a.pairs < 1:
         ap.error("--pairs must be >= 1")
@@ -75,6 +102,10 @@ def main():
     all_pairs = correspondences.pairs(len(data.ids), [1, 3, 5])
     chosen = [all_pairs[k] for k in sorted(rng.choice(len(all_pairs), a.pairs, replace=False))]
     built = [correspondences.build(data, i, j, rng) for i, j in chosen]
+    if a.geometry != "real":
+        sigma = 0.0 if a.geometry == "clean" else 1.0 / data.calib.fx
+        built = [clean(p, *solvers.truth("relpose", ba[p.i], ba[p.j]), rng, sigma, a.rig) for p in built]
+    print(f"geometry: {a.geometry}" + (f", baseline x {a.rig:g}" if a.geometry != "real" else ""))
     print("pairs:", chosen)
     print("| problem | input scale L | samples with a model (median %) | success % | median E_R deg | median E_t % | ms/call |")
     print("|---|---|---|---|---|---|---|")

@@ -192,7 +192,8 @@ def plot(records, outdir, ref):
             axes[0][c].axhline(1.0, color="gray", lw=0.5)
             axes[1][c].axhline(5.0, color="gray", lw=0.5)
             axes[0][c].legend()
-        fig.suptitle(f"KITTI 00 stereo rig, errors against the {ref} reference")
+        label = {"ba": "the GTSAM stereo BA", "vo": "the shipped VO poses"}[ref]
+        fig.suptitle(f"KITTI 00 stereo rig, {problem}: simhc and PoseLib, errors against {label} (seed in the run's output)")
         fig.tight_layout()
         path = os.path.join(outdir, f"kitti_{problem.replace(' ', '_').replace('=', '')}.png")
         fig.savefig(path, dpi=100)

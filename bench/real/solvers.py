@@ -43,7 +43,7 @@ def _rig_centre(v):
 # ---------------------------------------------------------------- simhc
 
 
-def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0):
+def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0, min_iterations=1000):
     """simhc.estimate_gen_relpose (or estimate_grps with frame j's offsets divided by
     `s_true`, so that the true scale is `s_true`)."""
     f1, v1, f2 = pair.f1, pair.v1, pair.f2
@@ -56,9 +56,10 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
     t0 = time.perf_counter()
     try:
         if grps:
-            pose, info = simhc.estimate_grps(f1, v1n, f2, v2n, threshold=th, seed=seed)
+            pose, info = simhc.estimate_grps(f1, v1n, f2, v2n, threshold=th, seed=seed, min_iterations=min_iterations)
         else:
-            pose, info = simhc.estimate_gen_relpose(f1, v1n, f2, v2n, threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed)
+            pose, info = simhc.estimate_gen_relpose(f1, v1n, f2, v2n, threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
+                                                    min_iterations=min_iterations)
     except simhc.SolveError as e:
         return _failed((time.perf_counter() - t0) * 1e3, f"{type(e).__name__}: {e}", len(f1))
     ms = (time.perf_counter() - t0) * 1e3
@@ -69,7 +70,7 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
             "iterations": int(info["iterations"]), "models": int(info["models"])}
 
 
-def simhc_upnp(pair, calib, px, noise_px, seed, scale):
+def simhc_upnp(pair, calib, px, noise_px, seed, scale, min_iterations=1000):
     """simhc.estimate_upnp: frame i's triangulated points against frame j's rays."""
     p, f, v = pair.points, pair.f2, pair.v2
     c, L = np.zeros(3), 1.0
@@ -78,7 +79,8 @@ def simhc_upnp(pair, calib, px, noise_px, seed, scale):
     th = px / calib.fx
     t0 = time.perf_counter()
     try:
-        pose, info = simhc.estimate_upnp((p - c) / L, f, (v - c) / L, threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed)
+        pose, info = simhc.estimate_upnp((p - c) / L, f, (v - c) / L, threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
+                                         min_iterations=min_iterations)
     except simhc.SolveError as e:
         return _failed((time.perf_counter() - t0) * 1e3, f"{type(e).__name__}: {e}", len(p))
     ms = (time.perf_counter() - t0) * 1e3
@@ -102,7 +104,7 @@ def _cameras(calib):
     return [cam, cam], exts
 
 
-def poselib_relpose(pair, calib, px):
+def poselib_relpose(pair, calib, px, min_iterations=1000):
     """PoseLib estimate_generalized_relative_pose on the same pixels, grouped by camera pair."""
     cams, exts = _cameras(calib)
     groups, order = [], []
@@ -117,7 +119,7 @@ def poselib_relpose(pair, calib, px):
             groups.append(m)
             order.append(k)
     t0 = time.perf_counter()
-    pose, info = poselib.estimate_generalized_relative_pose(groups, exts, cams, exts, cams, {"max_epipolar_error": px}, {})
+    pose, info = poselib.estimate_generalized_relative_pose(groups, exts, cams, exts, cams, {"max_epipolar_error": px, "min_iterations": min_iterations}, {})
     ms = (time.perf_counter() - t0) * 1e3
     mask = np.zeros(len(pair.f1), bool)
     for k, inl in zip(order, info.get("inliers", [])):
@@ -129,13 +131,13 @@ def poselib_relpose(pair, calib, px):
     return {"ok": True, "R": R.T, "t": -R.T @ t, "s": None, "mask": mask, "ms": ms, "error": None, "iterations": int(info["iterations"])}
 
 
-def poselib_upnp(pair, calib, px):
+def poselib_upnp(pair, calib, px, min_iterations=1000):
     """PoseLib estimate_generalized_absolute_pose on the same pixels and points."""
     cams, exts = _cameras(calib)
     ks = [np.flatnonzero(pair.cam2 == c) for c in (0, 1)]
     t0 = time.perf_counter()
     pose, info = poselib.estimate_generalized_absolute_pose([pair.px2[k] for k in ks], [pair.points[k] for k in ks], exts, cams,
-                                                            {"max_reproj_error": px}, {})
+                                                            {"max_reproj_error": px, "min_iterations": min_iterations}, {})
     ms = (time.perf_counter() - t0) * 1e3
     mask = np.zeros(len(pair.points), bool)
     for k, inl in zip(ks, info.get("inliers", [])):

@@ -91,11 +91,15 @@ def main():
                     help="real: the measured pixels; clean: bearings recomputed exactly from the landmarks and the "
                          "reference BA pose (no noise, no wrong match); clean1px: the same with 1 px of angular noise")
     ap.add_argument("--rig", type=float, default=1.0, help="with clean geometry: multiply the baseline by this")
+    ap.add_argument("--noise-px", type=float, default=1.0, help="simhc's sample tolerance `noise` (px at KITTI's focal)")
+    ap.add_argument("--min-iterations", type=int, default=1000, help="RANSAC minimum of samples (PoseLib's default 1000)")
+    ap.add_argument("--poselib", action="store_true", help="also PoseLib's row (relpose, upnp) with the same minimum")
     a = ap.parse_args()
     if a.pairs < 1:
         ap.error("--pairs must be >= 1")
     problems = a.problems.split(",")
-    print(f"seed {a.seed}; {a.pairs} pairs; thresholds {a.rel_px} / {a.abs_px} px")
+    print(f"seed {a.seed}; {a.pairs} pairs; thresholds {a.rel_px} / {a.abs_px} px; simhc noise {a.noise_px} px; "
+          f"min iterations {a.min_iterations}")
     data = kitti.load()
     ba = kitti.reference(data)
     rng = np.random.default_rng(a.seed)
@@ -111,23 +115,40 @@ def main():
     print("|---|---|---|---|---|---|---|")
     for problem in problems:
         for name in a.scales.split(","):
-            share, ok, eR, et, ms, Ls = [], [], [], [], [], []
+            share, ok, eR, et, ms, Ls, its = [], [], [], [], [], [], []
             for k, p in enumerate(built):
                 L = bench.input_scale(None if name == "none" else (name if name in ("baseline", "depth") else float(name)), data.calib, p)
                 Ls.append(L or 1.0)
                 if problem == "upnp":
-                    res = solvers.simhc_upnp(p, data.calib, a.abs_px, 1.0, a.seed + k, L)
+                    res = solvers.simhc_upnp(p, data.calib, a.abs_px, a.noise_px, a.seed + k, L, a.min_iterations)
                 else:
-                    res = solvers.simhc_relpose(p, data.calib, a.rel_px, 1.0, a.seed + k, L, grps=(problem == "grps"))
+                    res = solvers.simhc_relpose(p, data.calib, a.rel_px, a.noise_px, a.seed + k, L, grps=(problem == "grps"),
+                                                min_iterations=a.min_iterations)
                 share.append(100 * res.get("models", 0) / max(res.get("iterations", 1), 1))
+                its.append(res.get("iterations", 0))
                 Rg, tg = solvers.truth("upnp" if problem == "upnp" else "relpose", ba[p.i], ba[p.j])
                 e = solvers.errors(res, Rg, tg, 1.0 if problem == "grps" else None)
                 ok.append(e["success"])
                 eR.append(e["e_R"])
                 et.append(e["e_t"])
                 ms.append(res["ms"])
-            label = "metric (none)" if name == "none" else f"{np.median(Ls):.3g} m ({name})"
+            label = ("metric (none)" if name == "none" else f"{np.median(Ls):.3g} m ({name})") + f", median {np.median(its):.0f} samples"
             print(f"| {problem} | {label} | {np.median(share):.1f} | {100 * np.mean(ok):.0f} | {np.nanmedian(eR):.3f} | {np.nanmedian(et):.2f} | {np.median(ms):.1f} |")
+    if a.poselib:
+        for problem in [q for q in problems if q != "grps"]:
+            ok, eR, et, ms, its = [], [], [], [], []
+            for p in built:
+                res = (solvers.poselib_upnp(p, data.calib, a.abs_px, a.min_iterations) if problem == "upnp"
+                       else solvers.poselib_relpose(p, data.calib, a.rel_px, a.min_iterations))
+                Rg, tg = solvers.truth("upnp" if problem == "upnp" else "relpose", ba[p.i], ba[p.j])
+                e = solvers.errors(res, Rg, tg)
+                ok.append(e["success"])
+                eR.append(e["e_R"])
+                et.append(e["e_t"])
+                ms.append(res["ms"])
+                its.append(res.get("iterations", 0))
+            print(f"| {problem} | PoseLib (metres), median {np.median(its):.0f} samples | - | {100 * np.mean(ok):.0f} | {np.nanmedian(eR):.3f} | "
+                  f"{np.nanmedian(et):.2f} | {np.median(ms):.1f} |")
     syn = synthetic(10, a.seed)
     print("synthetic scenes of bench/peers (robust_grp.scene / robust_upnp.scene, 0 % outliers, 1 px, 10 scenes): "
           + ", ".join(f"{k} {100 * v:.1f} %" for k, v in syn.items()) + " of samples give a model (median)")

@@ -119,3 +119,22 @@ def test_bad_input(data):
         correspondences.build(data, 3, 3, np.random.default_rng(0))
     with pytest.raises(SystemExit):
         bench.parse_args(["--gaps", "0"])
+
+
+if __name__ == "__main__":
+    # `python bench/real/test_real.py`: the values the bounds were set from, per case.
+    d = kitti.load()
+    full = kitti.reference(d)
+    rng = np.random.default_rng(SEED)
+    print(f"seed {SEED}; pairs {PAIRS}")
+    for i, j in PAIRS:
+        pair = correspondences.build(d, i, j, rng)
+        ref = kitti.bundle_adjust(d, verbose=False, positions=range(i, j + 1))
+        R, t = solvers.truth("relpose", ref[i], ref[j])
+        w = solvers.errors({"ok": True, "R": R, "t": t, "s": None}, *solvers.truth("relpose", full[i], full[j]))
+        print(f"({i}, {j}) N {len(pair.f1)}: windowed vs full BA E_R {w['e_R']:.4f} deg, E_t {w['e_t']:.3f} %")
+        for problem, solver, ij, s_true in CASES:
+            if ij == (i, j):
+                res, e = run(problem, solver, pair, ref, d, s_true)
+                print(f"  {problem} {solver} s={s_true:g}: success {e['success']} E_R {e['e_R']:.4f} E_t {e['e_t']:.3f} "
+                      f"E_s {e['e_s']:.3f} inliers {res['mask'].mean():.3f} {res['ms']:.1f} ms")

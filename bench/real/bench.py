@@ -65,6 +65,8 @@ def parse_args(argv=None):
         ap.error("--stride must be >= 1")
     if a.max_pairs is not None and a.max_pairs < 1:
         ap.error("--max-pairs must be >= 1")
+    if a.max_corr is not None and a.max_corr < 7:
+        ap.error("--max-corr must be >= 7 (the relative solvers' sample)")
     for name in ("rel_px", "abs_px", "noise_px", "grps_scale"):
         if not getattr(a, name) > 0:
             ap.error(f"--{name.replace('_', '-')} must be > 0")
@@ -224,6 +226,8 @@ def main(argv=None):
           f"{a.abs_px} px (upnp); simhc noise {a.noise_px} px; simhc input scale {a.scale_name}; grps known scale {a.grps_scale}")
     print(f"simhc {getattr(simhc, '__version__', '?')} from {os.path.dirname(simhc.__file__)}; poselib {getattr(poselib, '__version__', '?')}")
     data = kitti.load()
+    if max(a.gaps) >= len(data.ids):
+        sys.exit(f"bench.py: --gaps {max(a.gaps)}: the sequence has {len(data.ids)} frames, so a gap must be below {len(data.ids)}")
     refs = {"ba": kitti.reference(data), "vo": data.vo}
     rng = np.random.default_rng(a.seed)
     pairs = select_pairs(len(data.ids), a, rng)

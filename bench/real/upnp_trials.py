@@ -3,6 +3,11 @@ learned start's own error ("Pred Initial") on real samples at an input scale.
 
     python bench/real/upnp_trials.py OUT.json [--samples 400] [--size 4] [--seed 1] [--scale depth|none|baseline|METRES]
     cargo run --release -p simhc-cli --no-default-features -- bench upnp --trials-file OUT.json
+    python bench/real/upnp_trials.py OUT.json --cut-from SYN.json --size 4   # a trials file cut to its first 4
+
+`--cut-from` instead keeps the first `--size` correspondences of each trial of another trials
+file (e.g. `simhc bench upnp --trials 300 --seed 1 --dump-trials SYN.json`, the training
+sampler's 16-point scenes), for the same comparison on synthetic samples.
 
 Samples of `--size` correspondences of random frame pairs (gaps 1, 3, 5) whose residual under
 the reference BA pose is below 3 px (inliers: the start is judged, not the sampling), the world
@@ -33,7 +38,17 @@ def main():
     ap.add_argument("--size", type=int, default=4)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--scale", default="depth")
+    ap.add_argument("--cut-from", default=None)
     a = ap.parse_args()
+    if a.cut_from:
+        with open(a.cut_from) as fh:
+            trials = json.load(fh)
+        for t in trials:
+            t["correspondences"] = t["correspondences"][:a.size]
+        with open(a.out, "w") as fh:
+            json.dump(trials, fh)
+        print(f"{len(trials)} trials of {a.cut_from} cut to {a.size} correspondences -> {a.out}")
+        return
     if a.samples < 1 or a.size < 3:
         ap.error("--samples >= 1 and --size >= 3")
     scale = None if a.scale == "none" else (a.scale if a.scale in ("baseline", "depth") else float(a.scale))

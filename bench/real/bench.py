@@ -224,7 +224,9 @@ def main(argv=None):
 
     print(f"seed {a.seed}; gaps {a.gaps}; stride {a.stride}; max pairs per gap {a.max_pairs}; thresholds {a.rel_px} px (relpose, grps), "
           f"{a.abs_px} px (upnp); simhc noise {a.noise_px} px; simhc input scale {a.scale_name}; grps known scale {a.grps_scale}")
-    print(f"simhc {getattr(simhc, '__version__', '?')} from {os.path.dirname(simhc.__file__)}; poselib {getattr(poselib, '__version__', '?')}")
+    from importlib.metadata import version
+
+    print(f"simhc {version('simhc')} from {os.path.dirname(simhc.__file__)}; poselib {version('poselib')}; gtsam {version('gtsam')}")
     data = kitti.load()
     if max(a.gaps) >= len(data.ids):
         sys.exit(f"bench.py: --gaps {max(a.gaps)}: the sequence has {len(data.ids)} frames, so a gap must be below {len(data.ids)}")

@@ -18,11 +18,12 @@ if [ ! -x "$PY" ]; then
   echo "run.sh: creating $VENV" >&2
   python3 -m venv "$VENV"
 fi
-if ! "$PY" -c "import gtsam, poselib, numpy, matplotlib, pytest" 2>/dev/null; then
+if ! "$PY" -I -c "import gtsam, poselib, numpy, matplotlib, pytest" 2>/dev/null; then
   echo "run.sh: installing gtsam poselib numpy matplotlib pytest into $VENV" >&2
   "$VENV/bin/pip" install --quiet --disable-pip-version-check gtsam poselib numpy matplotlib pytest
 fi
-if [ "${REBUILD_WHEEL:-0}" = 1 ] || ! "$PY" -c "import simhc" 2>/dev/null; then
+# -I: not from the current directory, whose simhc/ (the Rust crate) would import as a namespace.
+if [ "${REBUILD_WHEEL:-0}" = 1 ] || ! "$PY" -I -c "import simhc._simhc" 2>/dev/null; then
   echo "run.sh: building and installing the simhc wheel from ./python (release, several minutes)" >&2
   "$VENV/bin/pip" install --quiet --disable-pip-version-check --force-reinstall ./python
 fi

@@ -23,7 +23,7 @@ sys.path.insert(0, HERE)
 try:
     import gtsam  # noqa: F401
     import poselib  # noqa: F401
-    import simhc  # noqa: F401
+    import simhc._simhc  # noqa: F401  (the wheel, not the repository's simhc/ crate folder)
 except ImportError as e:
     raise ImportError(f"bench/real needs gtsam, poselib and the simhc wheel in this Python ({e}); "
                       "pip install gtsam poselib ./python") from e

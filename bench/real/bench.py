@@ -156,15 +156,16 @@ def summarize(records, ref):
     return rows
 
 
-def print_table(rows, title):
-    print(f"\n{title}")
-    print("| problem | gap | solver | pairs | success % | median E_R deg | median E_t % | median t dir deg | median E_s % | inliers % | ms/call |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+def print_table(rows, title, out=None):
+    out = out or sys.stdout
+    print(f"\n{title}", file=out)
+    print("| problem | gap | solver | pairs | success % | median E_R deg | median E_t % | median t dir deg | median E_s % | inliers % | ms/call |", file=out)
+    print("|---|---|---|---|---|---|---|---|---|---|---|", file=out)
     for r in rows:
         es = "-" if np.isnan(r["e_s"]) else f"{r['e_s']:.2f}"
         fail = f" ({r['failed_calls']} no model)" if r["failed_calls"] else ""
         print(f"| {r['problem']} | {r['gap']} | {r['solver']} | {r['pairs']} | {r['success']:.1f}{fail} | {r['e_R']:.3f} | {r['e_t']:.2f} | "
-              f"{r['e_dir']:.2f} | {es} | {r['inlier_ratio']:.1f} | {r['ms']:.1f} |")
+              f"{r['e_dir']:.2f} | {es} | {r['inlier_ratio']:.1f} | {r['ms']:.1f} |", file=out)
 
 
 def plot(records, outdir, ref):
@@ -222,11 +223,12 @@ def main(argv=None):
     import poselib
     import simhc
 
+    log = sys.stderr if a.json == "-" else sys.stdout
     print(f"seed {a.seed}; gaps {a.gaps}; stride {a.stride}; max pairs per gap {a.max_pairs}; thresholds {a.rel_px} px (relpose, grps), "
-          f"{a.abs_px} px (upnp); simhc noise {a.noise_px} px; simhc input scale {a.scale_name}; grps known scale {a.grps_scale}")
+          f"{a.abs_px} px (upnp); simhc noise {a.noise_px} px; simhc input scale {a.scale_name}; grps known scale {a.grps_scale}", file=log)
     from importlib.metadata import version
 
-    print(f"simhc {version('simhc')} from {os.path.dirname(simhc.__file__)}; poselib {version('poselib')}; gtsam {version('gtsam')}")
+    print(f"simhc {version('simhc')} from {os.path.dirname(simhc.__file__)}; poselib {version('poselib')}; gtsam {version('gtsam')}", file=log)
     data = kitti.load()
     if max(a.gaps) >= len(data.ids):
         sys.exit(f"bench.py: --gaps {max(a.gaps)}: the sequence has {len(data.ids)} frames, so a gap must be below {len(data.ids)}")
@@ -240,11 +242,13 @@ def main(argv=None):
         if not a.quiet and (k + 1) % 25 == 0:
             print(f"  {k + 1}/{len(pairs)} pairs, {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     tables = {ref: summarize(records, ref) for ref in refs}
-    print_table(tables["ba"], "Errors against the GTSAM stereo BA reference (bench/real/kitti.py)")
-    print_table(tables["vo"], "Errors against the shipped VO poses (VO_camera_poses00.txt)")
+    # With `--json -` stdout holds the JSON alone; the tables go to stderr.
+    out = sys.stderr if a.json == "-" else sys.stdout
+    print_table(tables["ba"], "Errors against the GTSAM stereo BA reference (bench/real/kitti.py)", out)
+    print_table(tables["vo"], "Errors against the shipped VO poses (VO_camera_poses00.txt)", out)
     if a.plot:
         for p in plot(records, a.plot, "ba"):
-            print(f"plot: {p}")
+            print(f"plot: {p}", file=log)
     if a.json:
         out = {"args": {k: v for k, v in vars(a).items() if k != "json"}, "tables": tables, "records": records}
         text = json.dumps(finite(out), indent=1)

@@ -27,7 +27,7 @@ if [ "${REBUILD_WHEEL:-0}" = 1 ] || ! "$PY" -I -c "import simhc._simhc" 2>/dev/n
   echo "run.sh: building and installing the simhc wheel from ./python (release, several minutes)" >&2
   "$VENV/bin/pip" install --quiet --disable-pip-version-check --force-reinstall ./python
 fi
-"$PY" bench/real/kitti.py
+"$PY" bench/real/kitti.py >&2   # the reference BA (cached); stdout stays for bench.py (--json -)
 case " $* " in
   *" --plot "*|*" --help "*|*" -h "*) exec "$PY" bench/real/bench.py "$@" ;;
   *) exec "$PY" bench/real/bench.py --plot target/figures "$@" ;;

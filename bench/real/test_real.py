@@ -5,7 +5,7 @@
 Four frame pairs (gaps 1, 3, 5, 5), correspondences drawn with seed SEED. The reference is a
 windowed GTSAM stereo bundle adjustment of frames i..j computed here (well under a second per
 pair; on these pairs it differs from the full-sequence BA of `kitti.py` by at most 0.03 deg
-and 0.3 % of the motion, measured 2026-12-05). Bounds were measured on these pairs (RESULTS.md:
+and 0.3 % of the motion, measured 2026-12-05). Bounds were measured on these pairs (BENCHMARKS.md, 2026-12-05, real data:
 largest value seen, then the bound) and hold a margin of about 2-4x; each can fail: a wrong
 convention, unit, threshold or scale gives errors of tens of degrees or percent.
 """
@@ -37,7 +37,7 @@ SEED = 45
 PAIRS = [(10, 11), (60, 63), (95, 100), (120, 125)]
 REL_PX, ABS_PX, NOISE_PX = 1.0, 3.0, 1.0
 
-# Bounds (measured maxima over PAIRS in RESULTS.md, section "CI test").
+# Bounds (measured maxima over PAIRS in BENCHMARKS.md, 2026-12-05 real data, section "CI test").
 BOUNDS = {
     # problem: (E_R deg, E_t % of the motion, smallest inlier ratio, E_s %); measured largest
     # (smallest for inliers) over PAIRS, both solvers: relpose 0.208 deg, 1.95 %, 0.909;

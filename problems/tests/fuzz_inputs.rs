@@ -8,6 +8,8 @@
 
 use nalgebra::Vector3;
 use proptest::prelude::*;
+use proptest::strategy::ValueTree;
+use simhc::ProblemLayout;
 use simhc::pipeline::{Validator, Verdict};
 use simhc::ransac::RansacOptions;
 use simhc_problems::grps::declared::GrpsSolvers;

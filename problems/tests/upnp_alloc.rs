@@ -56,8 +56,8 @@ fn a_solve_validated_by_the_linear_start_allocates_nothing() {
 fn a_ransac_sample_allocates_nothing() {
     use rand::{Rng, SeedableRng};
     use simhc::ransac::Estimator;
-    use simhc_problems::upnp::ransac::UpnpEstimator;
     use simhc_problems::upnp::learned::UpnpLearned;
+    use simhc_problems::upnp::ransac::UpnpEstimator;
     let estimator = UpnpEstimator::from_learned(UpnpLearned::shipped().expect("weights"), 0.01).expect("UPnP network");
     let config = UpnpSceneConfig { points: 100, noise_px: 1.0, ..UpnpSceneConfig::default() };
     let mut scene = config.sample_seeded(7).expect("valid config").correspondences;

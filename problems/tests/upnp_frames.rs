@@ -4,9 +4,9 @@
 use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
 use rand::SeedableRng;
-use simhc_problems::upnp::scene::{random_rotation, PointBox, UpnpScene, UpnpSceneConfig};
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::pose::UpnpPose;
+use simhc_problems::upnp::scene::{random_rotation, PointBox, UpnpScene, UpnpSceneConfig};
 
 /// A rigid frame change `x -> rotation x + translation`.
 type Rigid = (Matrix3<f64>, Vector3<f64>);

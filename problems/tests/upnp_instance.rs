@@ -4,10 +4,10 @@
 //! returns a wrong pose unflagged (not even from a random start), tracks perturbed starts to the
 //! truth, names the correspondence and field of bad input, and its batch call is the single call.
 
+use nalgebra::SVector;
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use simhc::pipeline::learned::NonFiniteParameter;
-use nalgebra::SVector;
 use simhc::pipeline::{Attempt, Method, PipelineError, StartError, StartProvider};
 use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
 use simhc_problems::metrics::{quat_from_rotation, rotation_error_deg, translation_error_pct};

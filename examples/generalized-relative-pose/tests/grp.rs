@@ -152,7 +152,8 @@ fn solve_reads_a_file_and_says_where_bad_input_is() {
     // What produced it, by name: a learned hypothesis (or a restart, another start) and a
     // method, or the fallback's candidate; JSON, not a Rust debug string.
     let origin = &doc["origin"];
-    let named = origin["start"].as_str().is_some_and(|s| s.starts_with("learned") || s.starts_with("restart")) && origin["method"].is_string();
+    let named =
+        origin["start"].as_str().is_some_and(|s| s.starts_with("learned") || s.starts_with("restart")) && origin["method"].is_string();
     assert!(named || origin["fallback"].is_u64(), "{origin}");
 
     let bad = dir.join("bad.json");

@@ -25,10 +25,10 @@
 //! ([`upnp_pose`]); the unknowns are the quaternion `[w, x, y, z]`.
 
 use super::geometry::{check_rays, check_spread, checked_translation, upnp_system, validate, UpnpError, UPNP_MIN_CORRESPONDENCES};
-use super::linear::linear_rotation;
-use super::scene::UpnpCorrespondence;
 use super::learned::{UpnpLearned, UPNP_WEIGHTS};
+use super::linear::linear_rotation;
 use super::pose::{global_minimum, UpnpPose, UpnpValidation};
+use super::scene::UpnpCorrespondence;
 use super::simulator::reprojected_cost;
 use super::{params_of, Upnp};
 use crate::metrics::{quat_from_rotation, rotation_from_quat};

@@ -425,7 +425,10 @@ where
                 .map(|f| {
                     let v = &x.as_slice()[f.offset..f.offset + f.kind.len()];
                     // A scalar unknown is a number, a vector or quaternion an array.
-                    (f.name.to_string(), if f.kind == simhc::layout::FieldKind::Scalar { serde_json::json!(v[0]) } else { serde_json::json!(v) })
+                    (
+                        f.name.to_string(),
+                        if f.kind == simhc::layout::FieldKind::Scalar { serde_json::json!(v[0]) } else { serde_json::json!(v) },
+                    )
                 })
                 .collect::<serde_json::Map<_, _>>()
                 .into()
@@ -456,7 +459,9 @@ where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
     match origin {
-        Origin::Path { provider, method } => serde_json::json!({ "start": solver.start_of(provider).to_string(), "method": format!("{method:?}") }),
+        Origin::Path { provider, method } => {
+            serde_json::json!({ "start": solver.start_of(provider).to_string(), "method": format!("{method:?}") })
+        }
         Origin::Fallback { candidate } => serde_json::json!({ "fallback": candidate }),
     }
 }

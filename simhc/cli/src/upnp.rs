@@ -2,10 +2,10 @@
 
 use crate::stats::{MethodRecord, Outcome, Summary, Thresholds};
 use nalgebra::Matrix3;
+use nalgebra::SVector;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use nalgebra::SVector;
 use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartError, StartProvider};
 use simhc::solver::hypotheses::other_provider;
 use simhc::solver::{FirstRowsError, LearnedHypotheses, SolveError as LibraryError};
@@ -200,7 +200,9 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
 
         // Pred Initial + LM: local refinement of the object-space cost from the prediction.
         let t0 = Instant::now();
-        let refined = first(corrs).and_then(|q| upnp_pose(&q, corrs)).map(|p| levenberg_marquardt(&p.rotation, &p.translation, corrs, &LmOptions::default()));
+        let refined = first(corrs)
+            .and_then(|q| upnp_pose(&q, corrs))
+            .map(|p| levenberg_marquardt(&p.rotation, &p.translation, corrs, &LmOptions::default()));
         let micros = us(t0.elapsed());
         pred_lm.outcomes.push(match refined {
             Some(lm) => outcome(&lm.rotation, &lm.translation, scene, micros, None),

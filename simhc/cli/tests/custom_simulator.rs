@@ -106,8 +106,25 @@ fn trained_weights(dir: &std::path::Path) -> std::path::PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let weights = dir.join("line.folded");
     let app = App::new("lines", "test").register(Declared::new(Line));
-    app.run_from(["lines", "train", "line", "--samples", "256", "--epochs", "2", "--seed", "3", "--out", weights.to_str().unwrap()])
-        .expect("trains");
+    // One hypothesis, no context stage: the schedules below are written for one learned start.
+    app.run_from([
+        "lines",
+        "train",
+        "line",
+        "--samples",
+        "256",
+        "--epochs",
+        "2",
+        "--seed",
+        "3",
+        "--hypotheses",
+        "1",
+        "--context-after",
+        "0",
+        "--out",
+        weights.to_str().unwrap(),
+    ])
+    .expect("trains");
     weights
 }
 

@@ -253,7 +253,9 @@ pub fn train_with_hook<H: FeatureHook>(
     // Drawing the scenes takes a while before the first training step: show it.
     let bar = if train.progress {
         indicatif::ProgressBar::new(samples as u64).with_style(
-            indicatif::ProgressStyle::default_bar().template("{elapsed_precise} [{bar:30}] {pos}/{len} scenes drawn").expect("valid template"),
+            indicatif::ProgressStyle::default_bar()
+                .template("{elapsed_precise} [{bar:30}] {pos}/{len} scenes drawn")
+                .expect("valid template"),
         )
     } else {
         indicatif::ProgressBar::hidden()

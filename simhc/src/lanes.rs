@@ -7,11 +7,11 @@
 //! per lane instead ([`crate::PathLanes::row`], [`crate::tracker::batch`]). A lane value is a struct of `[f64; LANES]` arrays ([`F64x4`], and [`C64x4`]
 //! with split real and imaginary parts, so a complex product is six lane-wise operations and
 //! never a shuffle); the element-wise loops compile to vector instructions. Generated row
-//! kernels are generic over [`Lanes`]; [`crate::Scalar::Lanes`] names the lane type of a scalar,
+//! kernels are generic over [`Lanes`]; [`crate::Ring::Lanes`] names the lane type of a scalar,
 //! and [`gather_rows`] / [`scatter_residual`] / [`scatter_jacobian`] move rows between the packed parameter vector and the
 //! lanes.
 
-use crate::Scalar;
+use crate::Ring;
 use nalgebra::{Complex, SMatrix, SVector};
 use std::ops::{Add, Mul, Neg, Sub};
 
@@ -21,7 +21,7 @@ pub const LANES: usize = 4;
 /// Arithmetic on `LANES` values of a scalar at once: what generated row kernels need.
 pub trait Lanes: Copy + std::fmt::Debug + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self> {
     /// The scalar of one lane.
-    type Scalar: Scalar;
+    type Scalar: Ring;
     /// The real constant `c` in every lane.
     fn from_real(c: f64) -> Self;
     /// Every lane multiplied by the real `c`.
@@ -350,7 +350,7 @@ unsafe fn run_avx512<K: IsaKernel>(kernel: K) {
 
 /// The unknowns, each broadcast to every lane.
 #[inline(always)]
-pub fn splat_all<S: Scalar, const NX: usize>(x: &SVector<S, NX>) -> [S::Lanes; NX] {
+pub fn splat_all<S: Ring, const NX: usize>(x: &SVector<S, NX>) -> [S::Lanes; NX] {
     // Plain loops: `std::array::from_fn` was left out of line here (measured).
     let mut out = [<S::Lanes as Lanes>::from_real(0.0); NX];
     for k in 0..NX {
@@ -363,7 +363,7 @@ pub fn splat_all<S: Scalar, const NX: usize>(x: &SVector<S, NX>) -> [S::Lanes; N
 /// `rows` get zeros): the `row_len` parameters of each row, then the `K - row_len` global
 /// parameters (stored after all rows in `p`) broadcast.
 #[inline(always)]
-pub fn gather_rows<S: Scalar, const NP: usize, const K: usize>(
+pub fn gather_rows<S: Ring, const NP: usize, const K: usize>(
     p: &SVector<S, NP>,
     first: usize,
     rows: usize,
@@ -386,12 +386,7 @@ pub fn gather_rows<S: Scalar, const NP: usize, const K: usize>(
 /// Writes the residuals `f` (`E` equations per row) of rows `first ..` into `out` (row-major:
 /// row `r`'s equations at `r * E ..`).
 #[inline(always)]
-pub fn scatter_residual<S: Scalar, const NF: usize, const E: usize>(
-    f: &[S::Lanes; E],
-    first: usize,
-    rows: usize,
-    out: &mut SVector<S, NF>,
-) {
+pub fn scatter_residual<S: Ring, const NF: usize, const E: usize>(f: &[S::Lanes; E], first: usize, rows: usize, out: &mut SVector<S, NF>) {
     for lane in 0..(rows - first).min(LANES) {
         for e in 0..E {
             out[(first + lane) * E + e] = f[e].get(lane);
@@ -402,7 +397,7 @@ pub fn scatter_residual<S: Scalar, const NF: usize, const E: usize>(
 /// Writes the Jacobian rows `j` (`E` equations per row, row-major `E x NX`) of rows `first ..`
 /// into `out`.
 #[inline(always)]
-pub fn scatter_jacobian<S: Scalar, const NF: usize, const NX: usize, const EX: usize>(
+pub fn scatter_jacobian<S: Ring, const NF: usize, const NX: usize, const EX: usize>(
     j: &[S::Lanes; EX],
     first: usize,
     rows: usize,

@@ -2,7 +2,9 @@
 //! interface and the homotopy continuation tracker that runs on generated code.
 //!
 //! The pieces, one concern per module:
-//! - [`scalar`]: the number type generated code is generic over (`f64`, `Complex<f64>`);
+//! - [`scalar`]: the number types generated code is generic over ([`Ring`]: `f64`,
+//!   `Complex<f64>`, [`interval::Interval`]; [`Scalar`] for the tracker);
+//! - [`interval`], [`certify`]: outward-rounded intervals and the Krawczyk certificate of a root;
 //! - [`lanes`]: several rows evaluated at once (the SIMD form of generated row kernels);
 //! - [`problem`]: the traits of a compiled polynomial system `F(x; p)`;
 //! - [`simulator`]: online simulators, including the generic minimum-norm one;
@@ -13,9 +15,11 @@
 //! - [`training`]: the learned start's training settings (the trainer is `simhc-regressor`).
 
 pub mod all_roots;
+pub mod certify;
 pub mod frames;
 pub mod homotopy;
 pub mod input;
+pub mod interval;
 pub mod lanes;
 pub mod layout;
 pub mod metrics;
@@ -36,7 +40,7 @@ pub use problem::{
     CoefficientForm, InstanceSizes, NoLanes, ParamDerivative, ParamLanes, ParamRowLayout, PathLanes, Problem, ProblemInfo, RowLanes,
     RowLayout,
 };
-pub use scalar::Scalar;
+pub use scalar::{Ring, Scalar};
 pub use simhc_macros::simhc_problem;
 pub use simulator::{onto_parameter_free, MinNormSimulator, OnlineSimulator, SimulatorError};
 

@@ -5,7 +5,7 @@
 //! Sizes are const generics so every buffer is a fixed-size nalgebra type on the stack:
 //! `NX` unknowns, `NF` equations (`NF >= NX`), `NP` parameters.
 
-use crate::Scalar;
+use crate::{Ring, Scalar};
 use nalgebra::{SMatrix, SVector};
 
 /// The sizes of a compiled instance: `NX` unknowns and `NP` parameters. `#[simhc_problem]`
@@ -36,11 +36,15 @@ pub trait ProblemInfo {
 )]
 pub trait Problem<const NX: usize, const NF: usize, const NP: usize>: ProblemInfo {
     /// `F(x; p)`.
-    fn residual<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, f: &mut SVector<S, NF>);
-    /// `dF/dx (x; p)`.
-    fn jacobian<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, j: &mut SMatrix<S, NF, NX>);
+    ///
+    /// Generic over a [`Ring`], not a field: the straight-line code only adds, subtracts,
+    /// multiplies and embeds real constants, so it runs over intervals too
+    /// ([`crate::certify`]).
+    fn residual<S: Ring>(x: &SVector<S, NX>, p: &SVector<S, NP>, f: &mut SVector<S, NF>);
+    /// `dF/dx (x; p)`, over a [`Ring`] as [`Problem::residual`].
+    fn jacobian<S: Ring>(x: &SVector<S, NX>, p: &SVector<S, NP>, j: &mut SMatrix<S, NF, NX>);
     /// Both at once, sharing common subexpressions.
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, NX>, p: &SVector<S, NP>, f: &mut SVector<S, NF>, j: &mut SMatrix<S, NF, NX>);
+    fn residual_jacobian<S: Ring>(x: &SVector<S, NX>, p: &SVector<S, NP>, f: &mut SVector<S, NF>, j: &mut SMatrix<S, NF, NX>);
 }
 
 /// Derivatives of `F(x; p)` with respect to the parameters `p`, for parameter homotopies

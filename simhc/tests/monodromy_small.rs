@@ -7,17 +7,17 @@ use simhc::all_roots::{move_start_system, solve_all, suspicious_paths, AllRootsO
 use simhc::monodromy::{monodromy_solve, relative_distance, seed_pair, MonodromyOptions, SignFlip, SolutionSet, StopReason};
 use simhc::scalar::C;
 use simhc::tracker::TrackError;
-use simhc::{ParamDerivative, Problem, ProblemInfo, Scalar};
+use simhc::{ParamDerivative, Problem, ProblemInfo, Ring, Scalar};
 
 /// The six monomials `[x^2, xy, y^2, x, y, 1]` and their derivatives.
-fn conic_monomials<S: Scalar>(x: &SVector<S, 2>) -> [S; 6] {
+fn conic_monomials<S: Ring>(x: &SVector<S, 2>) -> [S; 6] {
     let (a, b) = (x[0], x[1]);
-    [a * a, a * b, b * b, a, b, S::one()]
+    [a * a, a * b, b * b, a, b, S::constant(1.0)]
 }
 
-fn conic_gradients<S: Scalar>(x: &SVector<S, 2>) -> [[S; 2]; 6] {
+fn conic_gradients<S: Ring>(x: &SVector<S, 2>) -> [[S; 2]; 6] {
     let (a, b) = (x[0], x[1]);
-    let (z, one, two) = (S::zero(), S::one(), S::from_real(2.0));
+    let (z, one, two) = (S::constant(0.0), S::constant(1.0), S::constant(2.0));
     [[two * a, z], [b, a], [z, two * b], [one, z], [z, one], [z, z]]
 }
 
@@ -31,21 +31,21 @@ impl ProblemInfo for TwoConics {
 }
 
 impl Problem<2, 2, 12> for TwoConics {
-    fn residual<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 12>, f: &mut SVector<S, 2>) {
+    fn residual<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 12>, f: &mut SVector<S, 2>) {
         let m = conic_monomials(x);
         for k in 0..2 {
-            f[k] = (0..6).fold(S::zero(), |acc, j| acc + p[6 * k + j] * m[j]);
+            f[k] = (0..6).fold(S::constant(0.0), |acc, j| acc + p[6 * k + j] * m[j]);
         }
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 12>, j: &mut SMatrix<S, 2, 2>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 12>, j: &mut SMatrix<S, 2, 2>) {
         let g = conic_gradients(x);
         for k in 0..2 {
             for c in 0..2 {
-                j[(k, c)] = (0..6).fold(S::zero(), |acc, m| acc + p[6 * k + m] * g[m][c]);
+                j[(k, c)] = (0..6).fold(S::constant(0.0), |acc, m| acc + p[6 * k + m] * g[m][c]);
             }
         }
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 12>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 12>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -54,7 +54,7 @@ impl Problem<2, 2, 12> for TwoConics {
 impl ParamDerivative<2, 2, 12> for TwoConics {
     fn param_jacobian<S: Scalar>(x: &SVector<S, 2>, _p: &SVector<S, 12>, jp: &mut SMatrix<S, 2, 12>) {
         let m = conic_monomials(x);
-        jp.fill(S::zero());
+        jp.fill(S::constant(0.0));
         for k in 0..2 {
             for j in 0..6 {
                 jp[(k, 6 * k + j)] = m[j];
@@ -64,7 +64,7 @@ impl ParamDerivative<2, 2, 12> for TwoConics {
     fn param_directional<S: Scalar>(x: &SVector<S, 2>, _p: &SVector<S, 12>, dp: &SVector<S, 12>, out: &mut SVector<S, 2>) {
         let m = conic_monomials(x);
         for k in 0..2 {
-            out[k] = (0..6).fold(S::zero(), |acc, j| acc + dp[6 * k + j] * m[j]);
+            out[k] = (0..6).fold(S::constant(0.0), |acc, j| acc + dp[6 * k + j] * m[j]);
         }
     }
 }
@@ -79,19 +79,19 @@ impl ProblemInfo for CircleLine {
 }
 
 impl Problem<2, 2, 6> for CircleLine {
-    fn residual<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>) {
+    fn residual<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>) {
         let (u, v) = (x[0] - p[0], x[1] - p[1]);
         f[0] = u * u + v * v - p[2];
         f[1] = p[3] * x[0] + p[4] * x[1] + p[5];
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, j: &mut SMatrix<S, 2, 2>) {
-        let two = S::from_real(2.0);
+    fn jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 6>, j: &mut SMatrix<S, 2, 2>) {
+        let two = S::constant(2.0);
         j[(0, 0)] = two * (x[0] - p[0]);
         j[(0, 1)] = two * (x[1] - p[1]);
         j[(1, 0)] = p[3];
         j[(1, 1)] = p[4];
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -99,14 +99,14 @@ impl Problem<2, 2, 6> for CircleLine {
 
 impl ParamDerivative<2, 2, 6> for CircleLine {
     fn param_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, jp: &mut SMatrix<S, 2, 6>) {
-        let two = S::from_real(2.0);
-        jp.fill(S::zero());
+        let two = S::constant(2.0);
+        jp.fill(S::constant(0.0));
         jp[(0, 0)] = -two * (x[0] - p[0]);
         jp[(0, 1)] = -two * (x[1] - p[1]);
-        jp[(0, 2)] = -S::one();
+        jp[(0, 2)] = -S::constant(1.0);
         jp[(1, 3)] = x[0];
         jp[(1, 4)] = x[1];
-        jp[(1, 5)] = S::one();
+        jp[(1, 5)] = S::constant(1.0);
     }
     fn param_directional<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, dp: &SVector<S, 6>, out: &mut SVector<S, 2>) {
         let mut jp = SMatrix::<S, 2, 6>::zeros();
@@ -126,20 +126,20 @@ impl ProblemInfo for EvenPair {
 }
 
 impl Problem<2, 2, 4> for EvenPair {
-    fn residual<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 4>, f: &mut SVector<S, 2>) {
+    fn residual<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 4>, f: &mut SVector<S, 2>) {
         let (u, v) = (x[0], x[1]);
-        f[0] = u * u + v * v - S::one();
+        f[0] = u * u + v * v - S::constant(1.0);
         f[1] = p[0] * u * u + p[1] * u * v + p[2] * v * v + p[3];
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 4>, j: &mut SMatrix<S, 2, 2>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 4>, j: &mut SMatrix<S, 2, 2>) {
         let (u, v) = (x[0], x[1]);
-        let two = S::from_real(2.0);
+        let two = S::constant(2.0);
         j[(0, 0)] = two * u;
         j[(0, 1)] = two * v;
         j[(1, 0)] = two * p[0] * u + p[1] * v;
         j[(1, 1)] = p[1] * u + two * p[2] * v;
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 4>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 4>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -148,11 +148,11 @@ impl Problem<2, 2, 4> for EvenPair {
 impl ParamDerivative<2, 2, 4> for EvenPair {
     fn param_jacobian<S: Scalar>(x: &SVector<S, 2>, _p: &SVector<S, 4>, jp: &mut SMatrix<S, 2, 4>) {
         let (u, v) = (x[0], x[1]);
-        jp.fill(S::zero());
+        jp.fill(S::constant(0.0));
         jp[(1, 0)] = u * u;
         jp[(1, 1)] = u * v;
         jp[(1, 2)] = v * v;
-        jp[(1, 3)] = S::one();
+        jp[(1, 3)] = S::constant(1.0);
     }
     fn param_directional<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 4>, dp: &SVector<S, 4>, out: &mut SVector<S, 2>) {
         let mut jp = SMatrix::<S, 2, 4>::zeros();

@@ -26,7 +26,7 @@ pub(crate) fn pays(n: usize) -> bool {
     (6..=MAX_N).contains(&n)
 }
 
-type Row<S> = [<S as Scalar>::Lanes; MAX_BLOCKS];
+type Row<S> = [<S as crate::Ring>::Lanes; MAX_BLOCKS];
 
 #[inline(always)]
 fn get<S: Scalar>(r: &Row<S>, j: usize) -> S {

@@ -49,7 +49,7 @@
 //! use nalgebra::{SMatrix, SVector, Vector1};
 //! use simhc::homotopy::StraightLine;
 //! use simhc::tracker::{track, TrackerOptions};
-//! use simhc::{Problem, ProblemInfo, Scalar};
+//! use simhc::{Problem, ProblemInfo, Ring};
 //!
 //! struct Sqrt;
 //! impl ProblemInfo for Sqrt {
@@ -58,13 +58,13 @@
 //!     const PARAM_NAMES: &'static [&'static str] = &["a"];
 //! }
 //! impl Problem<1, 1, 1> for Sqrt {
-//!     fn residual<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>) {
+//!     fn residual<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>) {
 //!         f[0] = x[0] * x[0] - p[0];
 //!     }
-//!     fn jacobian<S: Scalar>(x: &SVector<S, 1>, _p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+//!     fn jacobian<S: Ring>(x: &SVector<S, 1>, _p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
 //!         j[(0, 0)] = x[0] + x[0];
 //!     }
-//!     fn residual_jacobian<S: Scalar>(
+//!     fn residual_jacobian<S: Ring>(
 //!         x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>,
 //!     ) {
 //!         Self::residual(x, p, f);
@@ -82,7 +82,7 @@ pub mod batch;
 mod corrector;
 mod factor;
 mod lane_lu;
-mod linalg;
+pub(crate) mod linalg;
 mod options;
 mod path;
 mod predictor;

@@ -5,12 +5,12 @@
 use nalgebra::{SMatrix, SVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use simhc::{ParamDerivative, Problem, ProblemInfo, Scalar};
+use simhc::{ParamDerivative, Problem, ProblemInfo, Ring, Scalar};
 
 /// A real constant in `S`.
 #[inline]
-pub fn k<S: Scalar>(v: f64) -> S {
-    S::from_real(v)
+pub fn k<S: Ring>(v: f64) -> S {
+    S::constant(v)
 }
 
 pub fn rng(seed: u64) -> ChaCha8Rng {
@@ -41,14 +41,14 @@ pub struct Cubic;
 info!(Cubic, "cubic");
 
 impl Problem<1, 1, 1> for Cubic {
-    fn residual<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>) {
+    fn residual<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>) {
         let (x, a) = (x[0], p[0]);
         f[0] = x * x * x + a * x - a * a * a - a * a;
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         j[(0, 0)] = k::<S>(3.0) * x[0] * x[0] + p[0];
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -73,14 +73,14 @@ pub struct FoldCubic;
 info!(FoldCubic, "fold_cubic");
 
 impl Problem<1, 1, 1> for FoldCubic {
-    fn residual<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>) {
+    fn residual<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>) {
         let x = x[0];
         f[0] = x * x * x - k::<S>(3.0) * x - p[0];
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 1>, _p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 1>, _p: &SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         j[(0, 0)] = k::<S>(3.0) * x[0] * x[0] - k::<S>(3.0);
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 1>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -102,14 +102,14 @@ pub struct Quadratic;
 info!(Quadratic, "quadratic");
 
 impl Problem<1, 1, 3> for Quadratic {
-    fn residual<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 3>, f: &mut SVector<S, 1>) {
+    fn residual<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 3>, f: &mut SVector<S, 1>) {
         let x = x[0];
         f[0] = (p[0] * x + p[1]) * x + p[2];
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 3>, j: &mut SMatrix<S, 1, 1>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 3>, j: &mut SMatrix<S, 1, 1>) {
         j[(0, 0)] = k::<S>(2.0) * p[0] * x[0] + p[1];
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 3>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 3>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -133,18 +133,18 @@ pub struct CircleLine;
 info!(CircleLine, "circle_line");
 
 impl Problem<2, 2, 6> for CircleLine {
-    fn residual<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>) {
+    fn residual<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>) {
         let (u, v) = (x[0] - p[0], x[1] - p[1]);
         f[0] = u * u + v * v - p[2] * p[2];
         f[1] = p[3] * x[0] + p[4] * x[1] - p[5];
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, j: &mut SMatrix<S, 2, 2>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 6>, j: &mut SMatrix<S, 2, 2>) {
         j[(0, 0)] = k::<S>(2.0) * (x[0] - p[0]);
         j[(0, 1)] = k::<S>(2.0) * (x[1] - p[1]);
         j[(1, 0)] = p[3];
         j[(1, 1)] = p[4];
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 6>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -214,8 +214,8 @@ fn q4_b(i: usize, j: usize, l: usize) -> usize {
 }
 
 #[inline]
-fn q4_e<S: Scalar>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>) -> SVector<S, 4> {
-    let mut e = SVector::<S, 4>::zeros();
+fn q4_e<S: Ring>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>) -> SVector<S, 4> {
+    let mut e = SVector::<S, 4>::from_element(S::constant(0.0));
     for j in 0..4 {
         let u = p[Q4_NA + Q4_NB + j];
         e[j] = x[j] - u * u * u;
@@ -224,20 +224,20 @@ fn q4_e<S: Scalar>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>) -> SVector<S, 4> {
 }
 
 impl Problem<4, 4, Q4_NP> for Quad4 {
-    fn residual<S: Scalar>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, f: &mut SVector<S, 4>) {
+    fn residual<S: Ring>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, f: &mut SVector<S, 4>) {
         let e = q4_e(x, p);
         for i in 0..4 {
-            let mut s = S::zero();
+            let mut s = S::constant(0.0);
             for j in 0..4 {
-                s += p[4 * i + j] * e[j];
+                s = s + p[4 * i + j] * e[j];
                 for l in j..4 {
-                    s += p[q4_b(i, j, l)] * e[j] * e[l];
+                    s = s + p[q4_b(i, j, l)] * e[j] * e[l];
                 }
             }
             f[i] = s;
         }
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, jac: &mut SMatrix<S, 4, 4>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, jac: &mut SMatrix<S, 4, 4>) {
         let e = q4_e(x, p);
         for i in 0..4 {
             for m in 0..4 {
@@ -246,13 +246,13 @@ impl Problem<4, 4, Q4_NP> for Quad4 {
             for j in 0..4 {
                 for l in j..4 {
                     let b = p[q4_b(i, j, l)];
-                    jac[(i, j)] += b * e[l];
-                    jac[(i, l)] += b * e[j];
+                    jac[(i, j)] = jac[(i, j)] + b * e[l];
+                    jac[(i, l)] = jac[(i, l)] + b * e[j];
                 }
             }
         }
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, f: &mut SVector<S, 4>, j: &mut SMatrix<S, 4, 4>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 4>, p: &SVector<S, Q4_NP>, f: &mut SVector<S, 4>, j: &mut SMatrix<S, 4, 4>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -317,14 +317,14 @@ info!(Over3x2, "over3x2");
 pub const O_NP: usize = 17;
 
 impl Problem<2, 3, O_NP> for Over3x2 {
-    fn residual<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, f: &mut SVector<S, 3>) {
+    fn residual<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, f: &mut SVector<S, 3>) {
         let (e1, e2) = (x[0] - p[15], x[1] - p[16]);
         for kk in 0..3 {
             let c = 5 * kk;
             f[kk] = p[c] * e1 + p[c + 1] * e2 + p[c + 2] * e1 * e1 + p[c + 3] * e1 * e2 + p[c + 4] * e2 * e2;
         }
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, j: &mut SMatrix<S, 3, 2>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, j: &mut SMatrix<S, 3, 2>) {
         let (e1, e2) = (x[0] - p[15], x[1] - p[16]);
         let two = k::<S>(2.0);
         for kk in 0..3 {
@@ -333,7 +333,7 @@ impl Problem<2, 3, O_NP> for Over3x2 {
             j[(kk, 1)] = p[c + 1] + p[c + 3] * e1 + two * p[c + 4] * e2;
         }
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, f: &mut SVector<S, 3>, j: &mut SMatrix<S, 3, 2>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, O_NP>, f: &mut SVector<S, 3>, j: &mut SMatrix<S, 3, 2>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -389,7 +389,7 @@ pub struct Poly6;
 info!(Poly6, "poly6");
 
 impl Problem<1, 1, 7> for Poly6 {
-    fn residual<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 7>, f: &mut SVector<S, 1>) {
+    fn residual<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 7>, f: &mut SVector<S, 1>) {
         let x = x[0];
         let mut acc = p[6];
         for kk in (0..6).rev() {
@@ -397,7 +397,7 @@ impl Problem<1, 1, 7> for Poly6 {
         }
         f[0] = acc;
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 7>, j: &mut SMatrix<S, 1, 1>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 7>, j: &mut SMatrix<S, 1, 1>) {
         let x = x[0];
         let mut acc = p[6] * k::<S>(6.0);
         for kk in (1..6).rev() {
@@ -405,7 +405,7 @@ impl Problem<1, 1, 7> for Poly6 {
         }
         j[(0, 0)] = acc;
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 7>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 7>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }
@@ -416,16 +416,16 @@ pub struct Start6;
 info!(Start6, "start6");
 
 impl Problem<1, 1, 0> for Start6 {
-    fn residual<S: Scalar>(x: &SVector<S, 1>, _p: &SVector<S, 0>, f: &mut SVector<S, 1>) {
+    fn residual<S: Ring>(x: &SVector<S, 1>, _p: &SVector<S, 0>, f: &mut SVector<S, 1>) {
         let x2 = x[0] * x[0];
-        f[0] = x2 * x2 * x2 - S::one();
+        f[0] = x2 * x2 * x2 - S::constant(1.0);
     }
-    fn jacobian<S: Scalar>(x: &SVector<S, 1>, _p: &SVector<S, 0>, j: &mut SMatrix<S, 1, 1>) {
+    fn jacobian<S: Ring>(x: &SVector<S, 1>, _p: &SVector<S, 0>, j: &mut SMatrix<S, 1, 1>) {
         let x = x[0];
         let x2 = x * x;
         j[(0, 0)] = k::<S>(6.0) * x2 * x2 * x;
     }
-    fn residual_jacobian<S: Scalar>(x: &SVector<S, 1>, p: &SVector<S, 0>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 1>, p: &SVector<S, 0>, f: &mut SVector<S, 1>, j: &mut SMatrix<S, 1, 1>) {
         Self::residual(x, p, f);
         Self::jacobian(x, p, j);
     }

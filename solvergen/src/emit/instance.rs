@@ -187,15 +187,15 @@ pub(super) fn instance(decl: &Declaration, lowered: &Lowered, expanded: &Expande
         #[allow(clippy::all, unused_variables)]
         impl ::simhc::Problem<#nx, #nf, #np> for #type_name {
             #[inline]
-            fn residual<S: ::simhc::Scalar>(x: &#sv<S, #nx>, p: &#sv<S, #np>, f: &mut #sv<S, #nf>) {
+            fn residual<S: ::simhc::Ring>(x: &#sv<S, #nx>, p: &#sv<S, #np>, f: &mut #sv<S, #nf>) {
                 #residual
             }
             #[inline]
-            fn jacobian<S: ::simhc::Scalar>(x: &#sv<S, #nx>, p: &#sv<S, #np>, j: &mut #sm<S, #nf, #nx>) {
+            fn jacobian<S: ::simhc::Ring>(x: &#sv<S, #nx>, p: &#sv<S, #np>, j: &mut #sm<S, #nf, #nx>) {
                 #jacobian
             }
             #[inline]
-            fn residual_jacobian<S: ::simhc::Scalar>(
+            fn residual_jacobian<S: ::simhc::Ring>(
                 x: &#sv<S, #nx>,
                 p: &#sv<S, #np>,
                 f: &mut #sv<S, #nf>,

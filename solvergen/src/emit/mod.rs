@@ -4,7 +4,7 @@
 //!
 //! Each trait method gets its own DAG (so the fused residual+Jacobian shares subexpressions
 //! between the two), emitted as one `let` per live node in topological order. The code is
-//! generic over `S: simhc::Scalar`, uses fixed-size nalgebra types, and cannot panic: all
+//! generic over `S: simhc::Ring` (residual and Jacobian) or `S: simhc::Scalar`, uses fixed-size nalgebra types, and cannot panic: all
 //! indices are constants within the fixed sizes.
 //!
 //! - `render`: a DAG as `let` statements and output assignments (every body goes through it).

@@ -40,14 +40,15 @@ impl LeafArrays {
     pub const SHARED_SLOTS: Self = Self { c: "shared", ..Self::ARGUMENTS };
 }
 
-/// Scalar code (`S: simhc::Scalar`) assigning `outputs` (target array, entries), leaves read
-/// from the trait methods' arguments.
+/// Scalar code (`S: simhc::Ring`: constants as `S::constant(c)`, products with a constant as
+/// `x.scale_by(c)`) assigning `outputs` (target array, entries), leaves read from the trait
+/// methods' arguments.
 pub(super) fn render_scalar(dag: &Dag, vars: &VarTable, outputs: &[(TokenStream, &Outputs)]) -> TokenStream {
     Renderer { dag, vars, arrays: LeafArrays::ARGUMENTS, fused: false }.render(outputs)
 }
 
-/// Lane-kernel code (`S: simhc::lanes::Lanes`) assigning `outputs`, with fused products and
-/// the leaves read from `arrays`.
+/// Lane-kernel code (`S: simhc::lanes::Lanes`: `S::from_real(c)`, `x.scale(c)`) assigning
+/// `outputs`, with fused products and the leaves read from `arrays`.
 pub(super) fn render_lanes(dag: &Dag, vars: &VarTable, arrays: LeafArrays, outputs: &[(TokenStream, &Outputs)]) -> TokenStream {
     Renderer { dag, vars, arrays, fused: true }.render(outputs)
 }
@@ -85,6 +86,8 @@ struct Renderer<'a> {
     /// or difference, is emitted fused with it (`Lanes::mul_add`, `mul_sub`, `neg_mul_add`,
     /// `scale_add`), so lane types with fused multiply-adds use them (path lanes); the trait's
     /// defaults are the two operations in the unfused order.
+    /// Only lane kernels fuse, so this also selects the lane trait's method names
+    /// (`from_real`, `scale`) over the ring's (`constant`, `scale_by`).
     fused: bool,
 }
 
@@ -281,7 +284,7 @@ impl Renderer<'_> {
                     // Hoisted once per function.
                     let lit = f64_lit(f64::from_bits(*bits));
                     let c = format_ident!("k{}", id.0);
-                    loads.push(quote!(let #c: S = S::from_real(#lit);));
+                    loads.push(if self.fused { quote!(let #c: S = S::from_real(#lit);) } else { quote!(let #c: S = S::constant(#lit);) });
                 }
                 Node::Mul(a, b) if self.dag.const_value(*a).or(self.dag.const_value(*b)).is_some() => {
                     let (c, x) = match self.dag.const_value(*a) {
@@ -290,7 +293,7 @@ impl Renderer<'_> {
                     };
                     let (lit, x) = (f64_lit(c), self.name(x));
                     let t = format_ident!("t{}", id.0);
-                    lets.push(quote!(let #t = #x.scale(#lit);));
+                    lets.push(if self.fused { quote!(let #t = #x.scale(#lit);) } else { quote!(let #t = #x.scale_by(#lit);) });
                 }
                 Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) => {
                     let (a, b) = (self.name(*a), self.name(*b));
@@ -332,7 +335,8 @@ impl Renderer<'_> {
             let v = self.name(*id);
             stmts.push(quote!(#target[#idx] = #v;));
         }
-        let fill = if zero { quote!(#target.fill(S::from_real(0.0));) } else { quote!() };
+        let zero_value = if self.fused { quote!(S::from_real(0.0)) } else { quote!(S::constant(0.0)) };
+        let fill = if zero { quote!(#target.fill(#zero_value);) } else { quote!() };
         quote!(#fill #(#stmts)*)
     }
 }

@@ -42,7 +42,7 @@ fn row_loop(
     j_out: Option<TokenStream>,
 ) -> TokenStream {
     let (rows, row_len, k_t, epr, ej) = (n(shape.rows), n(row_len), n(k), n(shape.epr), n(shape.epr * shape.nx));
-    let lanes = quote!(<S as ::simhc::Scalar>::Lanes);
+    let lanes = quote!(<S as ::simhc::Ring>::Lanes);
     let zero = quote!(<#lanes as ::simhc::lanes::Lanes>::from_real(0.0));
     let kernel = format_ident!("{}_run", kernel);
     let (decl_j, call) = if kernel_j {
@@ -318,7 +318,7 @@ impl<'a> RowKernels<'a> {
         let mut lane_kernel = quote!();
         let lanes = if split.linear[first_global..].iter().all(|p| p.is_zero()) {
             let (rows, nc1_t, epr, nx_t, nf_t) = (n(shape.rows), n(nc1), n(shape.epr), n(shape.nx), n(shape.nf));
-            let lanes = quote!(<S as ::simhc::Scalar>::Lanes);
+            let lanes = quote!(<S as ::simhc::Ring>::Lanes);
             let zero = quote!(<#lanes as ::simhc::lanes::Lanes>::from_real(0.0));
             let zero_globals = (first_global..shape.nf).map(|g| {
                 let g = n(g);
@@ -351,7 +351,7 @@ impl<'a> RowKernels<'a> {
             let args = [
                 (quote!(x), quote!(&'a ::simhc::__private::nalgebra::SVector<S, #nx_t>)),
                 (quote!(t), quote!(f64)),
-                (quote!(poly), quote!(&'a [<S as ::simhc::Scalar>::Lanes])),
+                (quote!(poly), quote!(&'a [<S as ::simhc::Ring>::Lanes])),
                 (quote!(out), quote!(&'a mut ::simhc::__private::nalgebra::SVector<S, #nf_t>)),
             ];
             let wrapped = dispatched(&args, body);
@@ -370,7 +370,7 @@ impl<'a> RowKernels<'a> {
                     self,
                     x: &::simhc::__private::nalgebra::SVector<S, #nx_t>,
                     t: f64,
-                    poly: &[<S as ::simhc::Scalar>::Lanes],
+                    poly: &[<S as ::simhc::Ring>::Lanes],
                     out: &mut ::simhc::__private::nalgebra::SVector<S, #nf_t>,
                 ) {
                     #wrapped

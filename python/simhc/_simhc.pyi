@@ -24,12 +24,14 @@ class NoSolutionError(SolveError):
 
 class Pose:
     """A pose: ``R`` (3, 3), ``t`` (3,), ``s`` (scale or None), ``q`` (unit quaternion
-    ``[w, x, y, z]`` of ``R``)."""
+    ``[w, x, y, z]`` of ``R``), ``certified`` (the distance to an exact root of the solved
+    system that an interval Krawczyk test proved, or None)."""
 
     R: npt.NDArray[np.float64]
     t: npt.NDArray[np.float64]
     s: Optional[float]
     q: npt.NDArray[np.float64]
+    certified: Optional[float]
 
 class ProblemSolver:
     """A declared problem's solver, built once at import."""

@@ -109,7 +109,7 @@ pub fn upnp(py: Python<'_>, points: &Bound<'_, PyAny>, bearings: &Bound<'_, PyAn
     let solution = py.detach(|| solver.solve(&corrs[..])).map_err(solve_failure)?;
     // A validated quaternion has a pose: the rays were checked before the solve.
     let pose = upnp_pose(&solution.x, &corrs).ok_or_else(|| Failure::NoSolution("the validated rotation has no translation".into()))?;
-    Pose::new(py, &pose.rotation, &pose.translation, None)
+    Ok(Pose::new(py, &pose.rotation, &pose.translation, None)?.certified(solution.certified.ok().map(|c| c.error_bound())))
 }
 
 /// Generalized relative pose and scale (GRPS) from N >= 8 correspondences between two

@@ -6,8 +6,9 @@ use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 
 /// A relative or absolute pose: `R` (3x3 rotation), `t` (3,), `s` (the scale, or `None`), `q`
-/// (the unit quaternion `[w, x, y, z]` of `R`). Which frame maps to which is the function's
-/// docstring's convention.
+/// (the unit quaternion `[w, x, y, z]` of `R`), `certified` (the error bound an interval
+/// Krawczyk test proved for the solved unknowns, or `None`). Which frame maps to which is the
+/// function's docstring's convention.
 #[pyclass(module = "simhc", frozen, get_all)]
 #[derive(Debug)]
 pub struct Pose {
@@ -20,6 +21,10 @@ pub struct Pose {
     pub s: Option<f64>,
     /// Unit quaternion `[w, x, y, z]` of `R`.
     pub q: Py<PyArray1<f64>>,
+    /// A proof that an exact root of the solved system lies within this distance (largest
+    /// over the unknowns) of the returned one, or `None`: not certified, or not a solve (an
+    /// estimate's pose reports it in `info["certified"]`).
+    pub certified: Option<f64>,
 }
 
 impl Pose {
@@ -27,7 +32,12 @@ impl Pose {
     pub fn new(py: Python<'_>, r: &Matrix3<f64>, t: &Vector3<f64>, s: Option<f64>) -> PyResult<Self> {
         let q = nalgebra::UnitQuaternion::from_matrix(r);
         let q = if q.w < 0.0 { [-q.w, -q.i, -q.j, -q.k] } else { [q.w, q.i, q.j, q.k] };
-        Ok(Self { r: matrix(py, r)?.unbind(), t: vector(py, t.as_slice()).unbind(), s, q: vector(py, &q).unbind() })
+        Ok(Self { r: matrix(py, r)?.unbind(), t: vector(py, t.as_slice()).unbind(), s, q: vector(py, &q).unbind(), certified: None })
+    }
+
+    /// The same pose with the error bound of its certificate (`None`: not certified).
+    pub fn certified(self, bound: Option<f64>) -> Self {
+        Self { certified: bound, ..self }
     }
 }
 
@@ -36,9 +46,13 @@ impl Pose {
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
         let r = self.r.bind(py).repr()?;
         let t = self.t.bind(py).repr()?;
+        let certified = match self.certified {
+            Some(b) => format!(", certified={b:.1e}"),
+            None => String::new(),
+        };
         Ok(match self.s {
-            Some(s) => format!("Pose(R={r}, t={t}, s={s})"),
-            None => format!("Pose(R={r}, t={t})"),
+            Some(s) => format!("Pose(R={r}, t={t}, s={s}{certified})"),
+            None => format!("Pose(R={r}, t={t}{certified})"),
         })
     }
 }

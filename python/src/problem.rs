@@ -24,7 +24,7 @@ pub trait DynSolver: Send + Sync {
     fn layout(&self) -> Layout;
     /// One solve of the data's parameter vector (`layout().param_len()` numbers): the
     /// validated unknowns.
-    fn solve(&self, params: &[f64]) -> Result<Vec<f64>, Failure>;
+    fn solve(&self, params: &[f64]) -> Result<(Vec<f64>, Option<f64>), Failure>;
     /// Solves of `params.len() / layout().param_len()` instances across cores.
     fn solve_batch(&self, params: &[f64]) -> Vec<Result<Vec<f64>, Failure>>;
     /// The robust estimate from any number of rows.
@@ -34,7 +34,7 @@ pub trait DynSolver: Send + Sync {
 pub(crate) fn solve_failure<C: std::fmt::Debug, const NX: usize>(e: SolveError<C, NX>) -> Failure {
     match e {
         SolveError::Input(_) => Failure::Input(e.to_string()),
-        SolveError::NotValidated { .. } => Failure::NotValidated(e.to_string()),
+        SolveError::NotValidated { .. } | SolveError::NotCertified { .. } => Failure::NotValidated(e.to_string()),
         SolveError::NoEndPoint { .. } => Failure::NoSolution(e.to_string()),
     }
 }
@@ -52,9 +52,9 @@ where
     fn layout(&self) -> Layout {
         S::Data::LAYOUT
     }
-    fn solve(&self, params: &[f64]) -> Result<Vec<f64>, Failure> {
+    fn solve(&self, params: &[f64]) -> Result<(Vec<f64>, Option<f64>), Failure> {
         let p = SVector::<f64, ND>::from_column_slice(params);
-        Solver::solve(self, &p).map(|s| s.x.as_slice().to_vec()).map_err(solve_failure)
+        Solver::solve(self, &p).map(|s| (s.x.as_slice().to_vec(), s.certified.ok().map(|c| c.error_bound()))).map_err(solve_failure)
     }
     fn solve_batch(&self, params: &[f64]) -> Vec<Result<Vec<f64>, Failure>> {
         let data: Vec<SVector<f64, ND>> = params.chunks_exact(ND).map(SVector::from_column_slice).collect();
@@ -159,8 +159,9 @@ impl ProblemSolver {
         }
     }
 
-    /// The validated unknowns of exactly `layout().rows` rows with noise `noise`.
-    pub fn solve_rows(&self, py: Python<'_>, n: usize, rows: Vec<f64>, globals: Vec<f64>, noise: f64) -> PyResult<Vec<f64>> {
+    /// The validated unknowns of exactly `layout().rows` rows with noise `noise`, and the
+    /// error bound of their certificate (`None`: not certified).
+    pub fn solve_rows(&self, py: Python<'_>, n: usize, rows: Vec<f64>, globals: Vec<f64>, noise: f64) -> PyResult<(Vec<f64>, Option<f64>)> {
         let layout = self.inner.layout();
         if n != layout.rows {
             return Err(Failure::Input(format!(
@@ -202,6 +203,9 @@ pub fn info_dict<'py>(py: Python<'py>, info: &EstimateInfo) -> PyResult<Bound<'p
     d.set_item("score", info.score)?;
     d.set_item("refinements", info.refinements)?;
     d.set_item("models", info.hypotheses)?;
+    // The proved distance of the model to an exact root of its best-fitting inliers' system
+    // (None: not certified, or not asked).
+    d.set_item("certified", info.certified.and_then(|c| c.ok()))?;
     Ok(d)
 }
 
@@ -263,8 +267,9 @@ impl ProblemSolver {
     /// Solves one instance: `rows` is a `(rows, per_row)` array (fields in `row_fields`
     /// order), `globals` the global numbers (if the problem has any), `noise` the data's noise
     /// in the problem's unit (the validator's tolerance; 0: exact data). Returns the unknowns
-    /// by name, validated on all rows; raises `InputError` (naming the row and field) or a
-    /// `SolveError`.
+    /// by name, validated on all rows, and `"certified"`: the bound on the distance to an
+    /// exact root that an interval Krawczyk test proved, or `None` where the proof did not go
+    /// through; raises `InputError` (naming the row and field) or a `SolveError`.
     #[pyo3(signature = (rows, globals = None, *, noise = 0.0))]
     fn solve<'py>(
         &self,
@@ -275,8 +280,10 @@ impl ProblemSolver {
     ) -> PyResult<Bound<'py, PyDict>> {
         let (n, rows) = self.rows(rows)?;
         let globals = self.globals(globals)?;
-        let x = self.solve_rows(py, n, rows, globals, noise)?;
-        self.unknowns_dict(py, &x)
+        let (x, certified) = self.solve_rows(py, n, rows, globals, noise)?;
+        let dict = self.unknowns_dict(py, &x)?;
+        dict.set_item("certified", certified)?;
+        Ok(dict)
     }
 
     /// Solves `B` instances across cores: `rows` is `(B, rows, per_row)`, `globals` `None`,

@@ -60,8 +60,8 @@ pub fn gen_relpose(
     noise: f64,
 ) -> PyResult<Pose> {
     let (n, rows) = rows(f, v, fp, vp)?;
-    let x = solver(py)?.get().solve_rows(py, n, rows, Vec::new(), noise)?;
-    to_pose(py, &x)
+    let (x, certified) = solver(py)?.get().solve_rows(py, n, rows, Vec::new(), noise)?;
+    Ok(to_pose(py, &x)?.certified(certified))
 }
 
 /// Robust generalized relative pose (LO-RANSAC over 7-correspondence samples, PoseLib's

@@ -60,6 +60,8 @@ def test_upnp_returns_the_true_pose(seed):
     assert rotation_error_deg(pose.R, r) < 1e-4, f"seed {seed}"
     assert np.linalg.norm(pose.t - t) < 1e-5, f"seed {seed}"
     assert pose.s is None
+    # Noise-free data: the returned rotation is certified next to an exact root.
+    assert pose.certified is not None and 0 <= pose.certified < 1e-6, f"seed {seed}: {pose.certified}"
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -93,6 +95,8 @@ def test_the_generic_module_matches_the_function():
     x = simhc.grp.solve(rows)
     pose = simhc.gen_relpose(f, v, fp, vp)
     assert np.allclose(x["t"], pose.t, atol=1e-12)
+    # The same certificate from both, for the exact root of noise-free data.
+    assert x["certified"] is not None and x["certified"] == pose.certified and x["certified"] < 1e-6
     assert np.linalg.norm(x["t"] - t) < 1e-2 * np.linalg.norm(t)
 
 

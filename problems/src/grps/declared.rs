@@ -499,7 +499,8 @@ impl GrpsSolvers {
         validate(corrs).map_err(|e| input(degenerate(e).into()))?;
         // The same 8 as `GrpsSolver` builds its system from: the first 8 of `spread_first`.
         let spread = spread_first(corrs);
-        let solution = self.eight.solve(&params_of::<96>(&spread[..8]).expect("more than 8 correspondences"))?;
+        let eight = params_of::<96>(&spread[..8]).expect("more than 8 correspondences");
+        let solution = self.eight.solve(&eight)?;
         let validator = self.eight.validator();
         let on_all = |x: SVector<f64, 8>| (x, Validator::<[GrpsCorrespondence], 8>::check(validator, corrs, &x));
         let rejected = |c: &Validation| matches!(Validator::<[GrpsCorrespondence], 8>::verdict(validator, c), Verdict::Reject);
@@ -520,6 +521,7 @@ impl GrpsSolvers {
         if rejected(&check) {
             return Err(SolveError::NotValidated { best: x, check, attempts: solution.attempts }.into());
         }
-        Ok(Solution { x, check, ..solution })
+        // The certificate of the pose returned (refined on all), on the 8 solved.
+        Ok(Solution { x, check, certified: self.eight.certify(&eight, &x), ..solution })
     }
 }

@@ -107,7 +107,13 @@ impl UpnpEstimator {
     /// `options` ([`RansacOptions::poselib`] for PoseLib's defaults), `options.threshold` an
     /// angle in radians ([`angular_error`]).
     pub fn estimate(&self, corrs: &[UpnpCorrespondence], options: &RansacOptions) -> Result<(UpnpPose, EstimateInfo), UpnpEstimateError> {
-        robust::estimate(self, corrs, options, validate, |got, need| UpnpError::TooFewCorrespondences { got, need })
+        let (pose, mut info) =
+            robust::estimate(self, corrs, options, validate, |got, need| UpnpError::TooFewCorrespondences { got, need })?;
+        // The certificate of the final pose on the UPnP system of its inliers (the cost it
+        // was refined on): a stationary point of that cost, so a root of the tracked system.
+        let inliers: Vec<UpnpCorrespondence> = info.inliers.iter().map(|&i| corrs[i]).collect();
+        info.certified = Some(self.solver.certify(&inliers[..], &nalgebra::SVector::from(pose.quaternion)).map(|c| c.error_bound()));
+        Ok((pose, info))
     }
 }
 

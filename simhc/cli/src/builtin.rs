@@ -281,6 +281,7 @@ impl Registration for Upnp {
                     report.thresholds.rotation_deg
                 );
                 println!("flag: returned flagged as not validated; wrong: returned unflagged yet over the threshold");
+                println!("{}", report.certificates.line());
                 let [linear, learned, fallback] = report.shipped_attempts;
                 println!("shipped solver, validated from: the linear start {linear}, the learned start {learned}, the all-roots fallback {fallback}");
                 for row in [upnp::PRED_HC_ROW, upnp::SHIPPED_ROW] {

@@ -388,12 +388,26 @@ where
         }));
         bar.finish_and_clear();
         let fallbacks = fallbacks.get();
+        // The certificates of the shipped solves that validate, timed alone (not in any row).
+        let certificates = {
+            let (mut stats, mut times) = (crate::certificates::CertificateStats::default(), Vec::new());
+            for (d, truth) in &trials {
+                if let Ok(s) = solver.run_pipeline(d, solver.schedule(), true, None) {
+                    let t0 = std::time::Instant::now();
+                    let certified = solver.certify(d, &s.x).is_ok();
+                    let micros = t0.elapsed().as_secs_f64() * 1e6;
+                    stats.push(certified, score.correct(&s.x, truth), micros, &mut times);
+                }
+            }
+            let shipped_median = rows.last().map_or(f64::NAN, |r| r.median_us);
+            stats.finish(times, shipped_median)
+        };
         if has_fallback && a.all_roots > 0 {
             rows.push(row("All-roots HC (validated)", &[], true, &trials[..a.all_roots.min(trials.len())]));
         }
         if a.json {
             return print_json(
-                &serde_json::json!({"problem": S::NAME, "source": source, "seed": a.seed, "noise": a.noise, "rows": bench_json(&rows), "shipped_fallbacks": fallbacks}),
+                &serde_json::json!({"problem": S::NAME, "source": source, "seed": a.seed, "noise": a.noise, "rows": bench_json(&rows), "shipped_fallbacks": fallbacks, "certificates": certificates}),
             );
         }
         print!("{}", table(&rows));
@@ -404,6 +418,7 @@ where
         if has_fallback {
             println!("shipped: {fallbacks} of {} trials ended in the all-roots fallback", trials.len());
         }
+        println!("{}", certificates.line());
         if let [.., shipped, all] = rows.as_slice() {
             if all.name.starts_with("All-roots") && shipped.median_us > 0.0 {
                 println!("median time, All-roots / Shipped: {:.1}x", all.median_us / shipped.median_us);
@@ -435,7 +450,7 @@ where
         };
         match solver.solve(&p) {
             Ok(s) => print_json(&serde_json::json!({
-                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": origin_json(&solver, s.origin), "attempts": s.attempts, "check": format!("{:?}", s.check),
+                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": origin_json(&solver, s.origin), "attempts": s.attempts, "check": format!("{:?}", s.check), "certificate": crate::certificates::json(&s.certified),
             })),
             Err(SolveError::NotValidated { best, check, attempts }) => Err(format!(
                 "{}: no solution validated after {attempts} attempts (noise {}; pass --noise for noisy data); best, flagged, NOT a solution: {} (check {check:?})",

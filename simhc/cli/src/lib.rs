@@ -19,6 +19,7 @@
 
 pub mod app;
 pub mod builtin;
+mod certificates;
 pub mod declared;
 mod grps;
 mod plots;

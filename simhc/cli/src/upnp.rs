@@ -88,6 +88,8 @@ pub struct BenchReport {
     /// How the shipped solver's poses were produced, counted over the trials: by an attempt
     /// from the linear start, from the learned start, or by the all-roots fallback.
     pub shipped_attempts: [usize; 3],
+    /// The certificates of the shipped solver's validated poses.
+    pub certificates: crate::certificates::CertificateStats,
 }
 
 /// The row of the shipped solver: the library solver a user calls ([`UpnpLibrarySolver`]:
@@ -186,6 +188,7 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
     let mut full = MethodRecord::new(SHIPPED_ROW);
     let mut all_roots = MethodRecord::new(ALL_ROOTS_ROW);
     let mut shipped_attempts = [0usize; 3];
+    let (mut certificates, mut certificate_times) = (crate::certificates::CertificateStats::default(), Vec::new());
     let all_roots_options = simhc::all_roots::AllRootsOptions::default();
     let bar = crate::app::progress_bar(trials.len() as u64, progress);
     let first = |corrs: &[UpnpCorrespondence]| learned.rank(corrs).ok().map(|r| r.x[0]);
@@ -238,6 +241,15 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
             Ok(Origin::Fallback { .. }) => shipped_attempts[2] += 1,
             Err(_) => {}
         }
+        // Its certificate, timed alone.
+        if let Ok(s) = &result {
+            let t0 = Instant::now();
+            let certified = solver.certify(corrs, &s.x).is_ok();
+            let micros = us(t0.elapsed());
+            let correct =
+                upnp_pose(&s.x, corrs).is_some_and(|p| rotation_error_deg(&p.rotation, &scene.rotation) < THRESHOLDS.rotation_deg);
+            certificates.push(certified, correct, micros, &mut certificate_times);
+        }
 
         // All-roots HC: every path of the Lagrange system from the shipped start system, the
         // real solution closest to the ground truth kept (the paper's choice).
@@ -262,7 +274,18 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
     bar.finish_and_clear();
     let rows: Vec<Summary> =
         [pred, pred_lm, rand_hc, pred_hc, linear, linear_hc, full, all_roots].iter().map(|m| m.summary(&THRESHOLDS)).collect();
-    Ok(BenchReport { problem: "upnp", seed: options.seed, trials: trials.len(), source, thresholds: THRESHOLDS, rows, shipped_attempts })
+    let shipped_median = rows.iter().find(|r| r.method == SHIPPED_ROW).map_or(f64::NAN, |r| r.time_median_us);
+    let certificates = certificates.finish(certificate_times, shipped_median);
+    Ok(BenchReport {
+        problem: "upnp",
+        seed: options.seed,
+        trials: trials.len(),
+        source,
+        thresholds: THRESHOLDS,
+        rows,
+        shipped_attempts,
+        certificates,
+    })
 }
 
 /// `simhc solve upnp --input F`: the pose of the correspondences in a JSON file
@@ -272,9 +295,9 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
     let corrs: Vec<UpnpCorrespondence> = simhc_problems::input::parse_correspondences(text).map_err(|e| e.to_string())?;
     let solver = UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| format!("loading the shipped regressor: {e}"))?;
     // A pose that did not validate is printed with `"validated": false`, never as a plain pose.
-    let (x, origin, attempts, check, validated) = match solver.solve(&corrs[..]) {
-        Ok(s) => (s.x, Some(s.origin), s.attempts, s.check, true),
-        Err(LibraryError::NotValidated { best, check, attempts }) => (best, None, attempts, check, false),
+    let (x, origin, attempts, check, validated, certificate) = match solver.solve(&corrs[..]) {
+        Ok(s) => (s.x, Some(s.origin), s.attempts, s.check, true, crate::certificates::json(&s.certified)),
+        Err(LibraryError::NotValidated { best, check, attempts }) => (best, None, attempts, check, false, serde_json::Value::Null),
         Err(e) => return Err(e.to_string()),
     };
     let pose = upnp_pose(&x, &corrs).ok_or("the end point has no pose (a zero quaternion)")?;
@@ -298,6 +321,7 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
         "start": start,
         "method": method,
         "attempts": attempts,
+        "certificate": certificate,
     }))
 }
 

@@ -48,6 +48,12 @@ pub struct EstimateInfo {
     pub score: f64,
     /// Refinements kept (local optimizations and the final rounds).
     pub refinements: usize,
+    /// The certificate of the returned model (`simhc::certify`): the proved bound on its
+    /// distance to an exact root of the tracked system made of the inliers it fits best (for
+    /// noisy data that root is the exact solution of those correspondences, not the truth), or
+    /// why there is none; `None` where the estimator does not certify (fewer inliers than a
+    /// data instance has rows, or an estimator without a certificate).
+    pub certified: Option<Result<f64, crate::certify::CertifyError>>,
 }
 
 impl EstimateInfo {
@@ -61,6 +67,7 @@ impl EstimateInfo {
             inlier_mask: r.inlier_mask,
             score: r.score,
             refinements: r.refinements,
+            certified: None,
         };
         (r.model, info)
     }
@@ -245,7 +252,7 @@ where
             p.as_mut_slice()[k * layout.per_row..(k + 1) * layout.per_row].copy_from_slice(data[i]);
         }
         p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(self.globals);
-        if let Ok(s) = self.solver.run(&p, sample_schedule(S::REFINES), false) {
+        if let Ok(s) = self.solver.run_pipeline(&p, sample_schedule(S::REFINES), false, None) {
             out.push(s.x);
         }
     }
@@ -398,7 +405,34 @@ where
             return self.estimate_one_sample(&samples, &data, rows, globals);
         }
         let r = ransac(&samples, &data, options).ok_or(EstimateError::NoModel { iterations: options.max_iterations })?;
-        Ok(EstimateInfo::split(r))
+        let (x, mut info) = EstimateInfo::split(r);
+        info.certified = self.certify_model(&samples, &data, globals, &x, &info.inliers);
+        Ok((x, info))
+    }
+
+    /// The certificate of a robust estimate: on the data instance made of the inliers with the
+    /// smallest errors (as many as the instance has rows), so that the certified system is the
+    /// one the model fits most closely.
+    fn certify_model(
+        &self,
+        samples: &Samples<'_, S, NX, NF, NP, NC, ND>,
+        data: &[&[f64]],
+        globals: &[f64],
+        x: &SVector<f64, NX>,
+        inliers: &[usize],
+    ) -> Option<Result<f64, crate::certify::CertifyError>> {
+        let layout = S::Data::LAYOUT;
+        if inliers.len() < layout.rows {
+            return None;
+        }
+        let mut best: Vec<(f64, usize)> = inliers.iter().map(|&i| (samples.residual(x, &data[i]), i)).collect();
+        best.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut p = SVector::<f64, ND>::zeros();
+        for (k, &(_, i)) in best.iter().take(layout.rows).enumerate() {
+            p.as_mut_slice()[k * layout.per_row..(k + 1) * layout.per_row].copy_from_slice(data[i]);
+        }
+        p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(globals);
+        Some(self.certify(&p, x).map(|c| c.error_bound()))
     }
 
     /// With exactly one sample's worth of rows every draw is the same sample: RANSAC would
@@ -428,6 +462,7 @@ where
             inlier_mask,
             score: errors.iter().map(|e| (e * e).min(t2)).sum(),
             refinements: 0,
+            certified: Some(self.certify(&p, &x).map(|c| c.error_bound())),
         };
         Ok((x, info))
     }

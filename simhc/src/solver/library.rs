@@ -30,6 +30,7 @@ use super::instance::{InstanceProblem, LearnedHypotheses, OwnCanon, OwnFallback,
 use super::parts::FirstRowsError;
 use super::problem::DeclaredProblem;
 use super::restarts::{restart_provider, RestartStart, MAX_RESTARTS};
+use crate::certify::{certify_rows, choose_rows, Certificate, CertifyError};
 use crate::pipeline::{
     Attempt, AttemptError, InputRows, LayoutOutputs, LayoutRows, LearnedStart, Method, Origin, OutputDecoding, Pipeline, PipelineError,
     PipelineOptions, Solved, StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
@@ -153,6 +154,11 @@ pub struct Solution<C, const NX: usize> {
     pub attempts: usize,
     /// The validator's figures on all the data.
     pub check: C,
+    /// A proof that a box around `x` holds exactly one true root of the tracked system on this
+    /// data (or a square subsystem of it, named by [`Certificate::rows`]), or why the proof did
+    /// not go through ([`InstanceSolver::certify`]). Validation says the data agree with `x`;
+    /// the certificate says an exact root lies within [`Certificate::error_bound`] of it.
+    pub certified: Result<Certificate<NX>, CertifyError>,
 }
 
 /// Why a solve returned no validated solution.
@@ -170,6 +176,19 @@ pub enum SolveError<C: Debug, const NX: usize> {
         check: C,
         /// Attempts made.
         attempts: usize,
+    },
+    /// A validated solution whose certificate did not go through, from a solver that requires
+    /// one ([`InstanceSolver::requiring_certificate`]): flagged, not a solution.
+    #[error("solution validated but not certified ({reason}): flagged, NOT a solution (check {check:?})")]
+    NotCertified {
+        /// The validated end point.
+        best: SVector<f64, NX>,
+        /// Its check.
+        check: C,
+        /// Attempts made.
+        attempts: usize,
+        /// Why the certificate failed.
+        reason: CertifyError,
     },
     /// No attempt produced an end point, and no fallback candidate.
     #[error("no end point after {attempts} attempts{}", match last { Some(e) => format!("; last: {e}"), None => String::new() })]
@@ -288,6 +307,8 @@ where
     options: PipelineOptions,
     /// [`InstanceProblem::restarts`].
     restarts: usize,
+    /// Whether a solution must be certified ([`InstanceSolver::requiring_certificate`]).
+    require_certificate: bool,
 }
 
 /// A row-wise problem's solver: its data is the parameter vector of its data instance.
@@ -340,7 +361,29 @@ where
             other_starts_first(&mut schedule, hypotheses, other_starts.len(), restarts);
         }
         let options = problem.solve_options();
-        Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule, options, restarts })
+        Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule, options, restarts, require_certificate: false })
+    }
+
+    /// The same solver, returning only certified solutions when `require` is set: a validated
+    /// end point that [`InstanceSolver::certify`] cannot certify is then
+    /// [`SolveError::NotCertified`] (flagged). Default: every solution reports its certificate
+    /// or why there is none, and is returned either way.
+    pub fn requiring_certificate(mut self, require: bool) -> Self {
+        self.require_certificate = require;
+        self
+    }
+
+    /// The interval Krawczyk certificate of `x` on the tracked system of `data` (the user's
+    /// data and frame, as a solution is returned): the tracked parameters of the data, and of an
+    /// overdetermined tracked system the `NX` best-conditioned equations at `x`
+    /// ([`crate::certify::choose_rows`]). Allocation-free; a few Jacobian evaluations over
+    /// intervals and an `NX x NX` interval product (the bench prints its time).
+    pub fn certify(&self, data: &D, x: &SVector<f64, NX>) -> Result<Certificate<NX>, CertifyError> {
+        // The data was checked by the solve that produced `x`; data that cannot give tracked
+        // parameters has no system to certify against.
+        let p = self.problem.tracked_params(data).map_err(|_| CertifyError::NonFinite)?;
+        let rows = choose_rows::<S::Tracked, NX, NF, NP>(x, &p)?;
+        certify_rows::<S::Tracked, NX, NF, NP>(x, &p, &rows)
     }
 
     /// The problem.
@@ -391,14 +434,16 @@ where
     /// Solves the data (all rows, the data layout's order for a row-wise problem): a validated
     /// solution or a typed error; a wrong answer is never returned as `Ok`.
     pub fn solve(&self, data: &D) -> InstanceOutcome<S::Validator, NX, D> {
-        self.run(data, &self.schedule, true)
-    }
-
-    /// A solve with these attempts, with or without the all-roots fallback (a RANSAC sample
-    /// goes without).
-    pub(crate) fn run(&self, data: &D, schedule: &[Attempt], fallback: bool) -> InstanceOutcome<S::Validator, NX, D> {
-        match self.run_pipeline(data, schedule, fallback, None) {
-            Ok(s) => Ok(Solution { x: s.x, origin: s.origin, attempts: s.attempts, check: s.check }),
+        match self.run_pipeline(data, &self.schedule, true, None) {
+            Ok(s) => {
+                let certified = self.certify(data, &s.x);
+                match certified {
+                    Err(reason) if self.require_certificate => {
+                        Err(SolveError::NotCertified { best: s.x, check: s.check, attempts: s.attempts, reason })
+                    }
+                    _ => Ok(Solution { x: s.x, origin: s.origin, attempts: s.attempts, check: s.check, certified }),
+                }
+            }
             Err(PipelineError::Input(e)) => Err(SolveError::Input(e)),
             Err(PipelineError::NotValidated(s)) => Err(SolveError::NotValidated { best: s.x, check: s.check, attempts: s.attempts }),
             Err(PipelineError::NoEndPoint { attempts, last }) => Err(SolveError::NoEndPoint { attempts, last }),

@@ -124,7 +124,9 @@ pub fn certify_rows<P: Problem<NX, NF, NP>, const NX: usize, const NF: usize, co
     rows: &[usize; NX],
 ) -> Result<Certificate<NX>, CertifyError> {
     let setup = Setup::new::<P, NF, NP>(x, p, rows)?;
-    let scale = x.amax() * f64::EPSILON;
+    // The floor of the radius: round-off relative to the point's size (absolute at 0, where a
+    // zero Newton step would otherwise give a zero box).
+    let scale = f64::EPSILON * if x.amax() > 0.0 { x.amax() } else { 1.0 };
     let mut radius = SVector::<f64, NX>::zeros();
     for i in 0..NX {
         radius[i] = INFLATION * setup.newton_step[i].mag().max(scale);

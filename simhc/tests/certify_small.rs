@@ -240,3 +240,40 @@ fn bad_calls_get_typed_errors() {
     assert_eq!(certify_box::<CircleLine, 2, 2, 2>(&root, &p, &[0, 1], &Vector2::new(0.0, 1e-9)), Err(CertifyError::Singular));
     assert_eq!(certify_box::<CircleLine, 2, 2, 2>(&root, &p, &[0, 1], &Vector2::new(-1.0, 1e-9)), Err(CertifyError::NonFinite));
 }
+
+/// `x + y - a`, `x - y - b`: linear, root `((a + b) / 2, (a - b) / 2)`.
+struct Linear;
+
+impl ProblemInfo for Linear {
+    const NAME: &'static str = "linear";
+    const UNKNOWN_NAMES: &'static [&'static str] = &["x", "y"];
+    const PARAM_NAMES: &'static [&'static str] = &["a", "b"];
+}
+
+impl Problem<2, 2, 2> for Linear {
+    fn residual<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 2>, f: &mut SVector<S, 2>) {
+        f[0] = x[0] + x[1] - p[0];
+        f[1] = x[0] - x[1] - p[1];
+    }
+    fn jacobian<S: Ring>(_x: &SVector<S, 2>, _p: &SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
+        j[(0, 0)] = S::constant(1.0);
+        j[(0, 1)] = S::constant(1.0);
+        j[(1, 0)] = S::constant(1.0);
+        j[(1, 1)] = S::constant(-1.0);
+    }
+    fn residual_jacobian<S: Ring>(x: &SVector<S, 2>, p: &SVector<S, 2>, f: &mut SVector<S, 2>, j: &mut SMatrix<S, 2, 2>) {
+        Self::residual(x, p, f);
+        Self::jacobian(x, p, j);
+    }
+}
+
+#[test]
+fn a_root_at_the_origin_certifies() {
+    // Zero Newton step and zero point: the radius floor keeps the box nonempty.
+    let zero = Vector2::zeros();
+    let cert = certify::<Linear, 2, 2, 2>(&zero, &Vector2::zeros()).expect("the origin certifies");
+    assert!(cert.encloses(&zero) && cert.radius.iter().all(|r| *r > 0.0));
+    // A point off the origin certifies with a box that holds it.
+    let x = Vector2::new(1e-3, -2e-3);
+    assert!(certify::<Linear, 2, 2, 2>(&x, &Vector2::zeros()).expect("linear: certifies").encloses(&zero));
+}

@@ -231,3 +231,24 @@ fn a_learned_start_with_its_own_output_decoding_decodes_the_best_hypothesis() {
     // Seven outputs are not blocks of 3 (and scores).
     assert!(LearnedStart::with_outputs(network(vec![0.1; 7]), layout, LayoutRows(layout), AngleAndShift).is_err());
 }
+
+#[test]
+fn certifying_does_not_allocate() {
+    use simhc::certify::{certify, certify_rows, choose_rows};
+    let (_, n) = counted(|| vec![1u8; 16]);
+    assert!(n >= 1, "counting allocator is not armed");
+    let mut rng = rng(701);
+    let p = quad4_params(&mut rng);
+    let x = quad4_solution(&p);
+    let (cert, n) = counted(|| certify::<Quad4, 4, 4, Q4_NP>(&x, &p));
+    // `x` is the root rounded to f64: within the certified error bound of the exact one.
+    assert!(cert.expect("a simple root certifies").error_bound() < 1e-12);
+    assert_eq!(n, 0, "certify: {n} allocations");
+    // Chosen rows of the overdetermined 3 x 2 at its known root.
+    let q = over_params(&mut rng);
+    let y = Vector2::new(q[15], q[16]);
+    let (cert, n) =
+        counted(|| choose_rows::<Over3x2, 2, 3, O_NP>(&y, &q).and_then(|rows| certify_rows::<Over3x2, 2, 3, O_NP>(&y, &q, &rows)));
+    assert!(cert.expect("a simple root certifies").encloses(&y));
+    assert_eq!(n, 0, "choose_rows + certify_rows: {n} allocations");
+}

@@ -50,6 +50,14 @@ pub enum TrackError {
         /// Last accepted `t`.
         t: f64,
     },
+    /// (Gauss-)Newton's updates became small at a point that provably has no root (square
+    /// system) or no stationary point of `|F|²` (more equations than unknowns) within the error
+    /// Newton was asked for ([`crate::pipeline::path::gauss_newton`]): it stalled.
+    #[error("Gauss-Newton stalled at a non-stationary point at t = {t}")]
+    Stalled {
+        /// `t` of the system it ran on.
+        t: f64,
+    },
 }
 
 impl TrackError {
@@ -61,7 +69,8 @@ impl TrackError {
             | TrackError::DivergedToInfinity { t }
             | TrackError::MaxSteps { t }
             | TrackError::CorrectorDidNotConverge { t }
-            | TrackError::NonFinite { t } => t,
+            | TrackError::NonFinite { t }
+            | TrackError::Stalled { t } => t,
         }
     }
 }

@@ -17,8 +17,8 @@ use simhc_problems::grps::solver::{GrpsSolver, GrpsSolverOptions};
 use simhc_problems::grps::{unknowns_of, Grps7, Grps8};
 use simhc_problems::metrics::quat_from_rotation;
 use simhc_problems::upnp::geometry::upnp_system;
+use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::scene::UpnpSceneConfig;
-use simhc_problems::upnp::solver::UpnpSolver;
 use simhc_problems::upnp::{params_of as upnp_params, Upnp};
 use std::hint::black_box;
 use std::time::Instant;
@@ -69,20 +69,20 @@ fn main() {
     let noise: f64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(0.0);
     println!("scene seeds 0..{trials}");
 
-    let solver = UpnpSolver::new().expect("shipped weights load");
+    let solver = UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights load");
     let config = UpnpSceneConfig { noise_px: noise, ..UpnpSceneConfig::default() };
     let mut upnp = Row::default();
     for seed in 0..trials as u64 {
         let scene = config.sample_seeded(seed).expect("valid config");
         let t = Instant::now();
-        let pose = solver.solve(black_box(&scene.correspondences));
+        let solution = solver.solve(black_box(&scene.correspondences[..]));
         let solve = t.elapsed().as_secs_f64() * 1e6;
-        let Ok(pose) = pose else { continue };
+        let Ok(solution) = solution else { continue };
         upnp.solved += 1;
         upnp.solve_us.push(solve);
         // The parameters are the solver's input, built before it runs: not part of the cost.
         let p = upnp_params(&upnp_system(&scene.correspondences).expect("valid scene").m);
-        let x = SVector::<f64, 4>::from(pose.quaternion);
+        let x = solution.x;
         let t = Instant::now();
         let cert = choose_rows::<Upnp, 4, 5, 66>(black_box(&x), &p).and_then(|rows| certify_rows::<Upnp, 4, 5, 66>(&x, &p, &rows));
         upnp.certify_us.push(t.elapsed().as_secs_f64() * 1e6);

@@ -18,8 +18,8 @@ use simhc_problems::grps::solver::GrpsSolver;
 use simhc_problems::grps::{unknowns_of, Grps7, Grps8};
 use simhc_problems::metrics::quat_from_rotation;
 use simhc_problems::upnp::geometry::upnp_system;
+use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::scene::UpnpSceneConfig;
-use simhc_problems::upnp::solver::UpnpSolver;
 use simhc_problems::upnp::{params_of as upnp_params, Upnp};
 
 /// `x` with its quaternion (the first 4 entries) negated.
@@ -46,7 +46,7 @@ struct Tally {
 
 #[test]
 fn upnp_noise_free_answers_certify_and_no_certificate_misses_the_truth() {
-    let solver = UpnpSolver::new().expect("shipped weights load");
+    let solver = UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights load");
     let config = UpnpSceneConfig { noise_px: 0.0, ..UpnpSceneConfig::default() };
     let mut t = Tally::default();
     for seed in 0..1000u64 {
@@ -57,9 +57,9 @@ fn upnp_noise_free_answers_certify_and_no_certificate_misses_the_truth() {
         if certify_rows::<Upnp, 4, 5, 66>(&truth, &p, &rows).is_ok_and(|c| holds_truth(&c, &truth)) {
             t.truth_certified += 1;
         }
-        let Ok(pose) = solver.solve(&scene.correspondences) else { continue };
+        let Ok(solution) = solver.solve(&scene.correspondences[..]) else { continue };
         t.solved += 1;
-        let x = SVector::<f64, 4>::from(pose.quaternion);
+        let x = solution.x;
         let Ok(rows) = choose_rows::<Upnp, 4, 5, 66>(&x, &p) else { continue };
         if let Ok(cert) = certify_rows::<Upnp, 4, 5, 66>(&x, &p, &rows) {
             t.certified += 1;

@@ -240,3 +240,25 @@ fn wrong_end_points_from_random_starts_are_flagged() {
     // Both branches must be exercised for the test to mean anything.
     assert!(right >= 10 && flagged >= 10, "right {right}, flagged {flagged}");
 }
+
+/// Noise-free solves come with a certificate (an interval Krawczyk proof on the tracked
+/// system), its enclosure holds the true rotation (up to the quaternion's sign), and a solver
+/// that requires certificates returns the same solutions.
+#[test]
+fn noise_free_solutions_are_certified_around_the_truth() {
+    let solver =
+        UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights load").certifying(simhc::solver::Certification::Require);
+    let config = UpnpSceneConfig { noise_px: 0.0, ..UpnpSceneConfig::default() };
+    let (mut certified, n) = (0, 40);
+    for seed in 300..300 + n {
+        let scene = config.sample_seeded(seed).expect("valid config");
+        let s = solver.solve(&scene.correspondences[..]).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let c = s.certified.expect("asked").expect("a required certificate");
+        let q = quat_from_rotation(&scene.rotation);
+        let truth = SVector::from(q);
+        assert!(c.encloses(&truth) || c.encloses(&-truth), "seed {seed}: the enclosure misses the truth");
+        assert!(c.error_bound() < 1e-8, "seed {seed}: bound {}", c.error_bound());
+        certified += 1;
+    }
+    println!("seeds 300..340: {certified}/{n} certified");
+}

@@ -25,7 +25,11 @@ const FOCAL_PX: f64 = 800.0;
 fn upnp_library() -> Result<&'static UpnpLibrarySolver, Failure> {
     static SOLVER: OnceLock<Result<UpnpLibrarySolver, String>> = OnceLock::new();
     SOLVER
-        .get_or_init(|| UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| e.to_string()))
+        .get_or_init(|| {
+            UpnpLibrarySolver::new(UpnpProblem::default())
+                .map(|s| s.certifying(simhc::solver::Certification::Report))
+                .map_err(|e| e.to_string())
+        })
         .as_ref()
         .map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))
 }
@@ -109,7 +113,7 @@ pub fn upnp(py: Python<'_>, points: &Bound<'_, PyAny>, bearings: &Bound<'_, PyAn
     let solution = py.detach(|| solver.solve(&corrs[..])).map_err(solve_failure)?;
     // A validated quaternion has a pose: the rays were checked before the solve.
     let pose = upnp_pose(&solution.x, &corrs).ok_or_else(|| Failure::NoSolution("the validated rotation has no translation".into()))?;
-    Ok(Pose::new(py, &pose.rotation, &pose.translation, None)?.certified(solution.certified.ok().map(|c| c.error_bound())))
+    Ok(Pose::new(py, &pose.rotation, &pose.translation, None)?.certified(solution.certified.and_then(|c| c.ok()).map(|c| c.error_bound())))
 }
 
 /// Generalized relative pose and scale (GRPS) from N >= 8 correspondences between two

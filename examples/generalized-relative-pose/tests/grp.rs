@@ -151,6 +151,7 @@ fn solve_reads_a_file_and_says_where_bad_input_is() {
     assert!(e_r < 1e-6 && e_t < 1e-6, "{e_r} deg, {e_t} %");
     // What produced it, by name: a learned hypothesis (or a restart, another start) and a
     // method, or the fallback's candidate; JSON, not a Rust debug string.
+    assert_eq!(doc["certificate"]["certified"], true, "{out}");
     let origin = &doc["origin"];
     let named =
         origin["start"].as_str().is_some_and(|s| s.starts_with("learned") || s.starts_with("restart")) && origin["method"].is_string();
@@ -398,4 +399,34 @@ fn a_repeated_correspondence_is_degenerate_input_naming_its_row() {
     let options = simhc::ransac::RansacOptions::poselib(1e-6);
     let e = solver.estimate(p.as_slice(), &[], &options).expect_err("degenerate");
     assert!(e.to_string().contains("row 5"), "{e}");
+}
+
+/// The certificate comes with every solution of a user's problem, through the compiler, with
+/// no line in the problem: noise-free solves (half in random frames) certify, the certified
+/// box holds the truth (up to the quaternion's sign), and a solution the data do not fit
+/// exactly (the truth moved off by far more than the box) does not certify.
+#[test]
+fn a_users_problem_is_certified_without_a_line_of_its_own() {
+    let seed = 46;
+    println!("seed {seed}");
+    let solver = simhc::solver::Solver::new(GenRelPose::new()).expect("shipped weights").certifying(simhc::solver::Certification::Report);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (mut certified, mut solved) = (0, 0);
+    for k in 0..20 {
+        let (p, x) = scene(&mut rng, 0.0);
+        let (p, x) = if k % 2 == 1 { move_frames(&mut rng, &p, &x) } else { (p, x) };
+        let Ok(s) = solver.solve(&p) else { continue };
+        solved += 1;
+        if let Some(Ok(c)) = s.certified {
+            let mut flipped = x;
+            flipped.fixed_rows_mut::<4>(0).neg_mut();
+            assert!(c.box_contains(&x) || c.box_contains(&flipped), "trial {k}: the certified box misses the truth");
+            certified += 1;
+            let mut off = s.x;
+            off[4] += 1e-3;
+            assert!(solver.certify(&p, &off).is_err(), "trial {k}: a point 1e-3 off the root certified");
+        }
+    }
+    println!("{certified} of {solved} solutions certified");
+    assert!(solved >= 19 && certified >= solved - 1, "{certified} certified of {solved} solved");
 }

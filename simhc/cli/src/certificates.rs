@@ -7,11 +7,13 @@ use serde::Serialize;
 use simhc::certify::{Certificate, CertifyError};
 
 /// A solution's certificate as JSON: `{"certified": true, "error_bound": .., "rows": [..]}`
-/// (the equations of the square system certified), or `{"certified": false, "reason": ..}`.
-pub fn json<const NX: usize>(c: &Result<Certificate<NX>, CertifyError>) -> serde_json::Value {
+/// (the equations of the square system certified), `{"certified": false, "reason": ..}`, or
+/// `null` from a solver that does not certify.
+pub fn json<const NX: usize>(c: &Option<Result<Certificate<NX>, CertifyError>>) -> serde_json::Value {
     match c {
-        Ok(c) => serde_json::json!({ "certified": true, "error_bound": c.error_bound(), "rows": c.rows.to_vec() }),
-        Err(e) => serde_json::json!({ "certified": false, "reason": e.to_string() }),
+        Some(Ok(c)) => serde_json::json!({ "certified": true, "error_bound": c.error_bound(), "rows": c.rows.to_vec() }),
+        Some(Err(e)) => serde_json::json!({ "certified": false, "reason": e.to_string() }),
+        None => serde_json::Value::Null,
     }
 }
 

@@ -432,7 +432,7 @@ where
         let text = std::fs::read_to_string(&a.input).map_err(|e| format!("{}: {e}", a.input.display()))?;
         let p = simhc::input::parse_layout_params(&layout, &text).map_err(|e| format!("{}: {e}", a.input.display()))?;
         let p = SVector::<f64, ND>::from_column_slice(&p);
-        let solver = self.solver(&a.weights, a.noise)?;
+        let solver = self.solver(&a.weights, a.noise)?.certifying(simhc::solver::Certification::Report);
         let unknowns = |x: &SVector<f64, NX>| -> serde_json::Value {
             layout
                 .unknowns

@@ -293,7 +293,9 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
 /// by the UPnP library solver ([`UpnpLibrarySolver`]).
 pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
     let corrs: Vec<UpnpCorrespondence> = simhc_problems::input::parse_correspondences(text).map_err(|e| e.to_string())?;
-    let solver = UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| format!("loading the shipped regressor: {e}"))?;
+    let solver = UpnpLibrarySolver::new(UpnpProblem::default())
+        .map_err(|e| format!("loading the shipped regressor: {e}"))?
+        .certifying(simhc::solver::Certification::Report);
     // A pose that did not validate is printed with `"validated": false`, never as a plain pose.
     let (x, origin, attempts, check, validated, certificate) = match solver.solve(&corrs[..]) {
         Ok(s) => (s.x, Some(s.origin), s.attempts, s.check, true, crate::certificates::json(&s.certified)),

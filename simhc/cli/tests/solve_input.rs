@@ -96,6 +96,11 @@ fn solve_of_a_declared_problem_prints_json_values() {
     assert_eq!(doc["unknowns"]["t"].as_array().map(|t| t.len()), Some(3), "{out}");
     let origin = &doc["origin"];
     assert!((origin["start"].is_string() && origin["method"].is_string()) || origin["fallback"].is_u64(), "{out}");
+    // Noise-free data: the answer is certified on 8 of the 9 equations.
+    let certificate = &doc["certificate"];
+    assert_eq!(certificate["certified"], serde_json::Value::Bool(true), "{out}");
+    assert!(certificate["error_bound"].as_f64().is_some_and(|b| b < 1e-6), "{out}");
+    assert_eq!(certificate["rows"].as_array().map(|r| r.len()), Some(8), "{out}");
 }
 
 #[test]

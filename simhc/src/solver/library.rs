@@ -156,9 +156,10 @@ pub struct Solution<C, const NX: usize> {
     pub check: C,
     /// A proof that a box around `x` holds exactly one true root of the tracked system on this
     /// data (or a square subsystem of it, named by [`Certificate::rows`]), or why the proof did
-    /// not go through ([`InstanceSolver::certify`]). Validation says the data agree with `x`;
-    /// the certificate says an exact root lies within [`Certificate::error_bound`] of it.
-    pub certified: Result<Certificate<NX>, CertifyError>,
+    /// not go through ([`InstanceSolver::certify`]); `None` from a solver that does not certify
+    /// ([`Certification::Off`], the default). Validation says the data agree with `x`; the
+    /// certificate says an exact root lies within [`Certificate::error_bound`] of it.
+    pub certified: Option<Result<Certificate<NX>, CertifyError>>,
 }
 
 /// Why a solve returned no validated solution.
@@ -178,7 +179,7 @@ pub enum SolveError<C: Debug, const NX: usize> {
         attempts: usize,
     },
     /// A validated solution whose certificate did not go through, from a solver that requires
-    /// one ([`InstanceSolver::requiring_certificate`]): flagged, not a solution.
+    /// one ([`Certification::Require`]): flagged, not a solution.
     #[error("solution validated but not certified ({reason}): flagged, NOT a solution (check {check:?})")]
     NotCertified {
         /// The validated end point.
@@ -198,6 +199,23 @@ pub enum SolveError<C: Debug, const NX: usize> {
         /// The last attempt's error.
         last: Option<AttemptError>,
     },
+}
+
+/// Whether a solve certifies its solution ([`InstanceSolver::certifying`]).
+///
+/// Off by default: a certificate costs about as much as a solve (1.1-1.5x on UPnP and GRPS,
+/// scalar interval arithmetic; BENCHMARKS.md, 2026-12-05), which a hot loop should not pay
+/// unasked. The `solve` command, Python and the estimators' final models ask.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Certification {
+    /// No certificate (`Solution::certified` is `None`).
+    #[default]
+    Off,
+    /// Every solution reports its certificate, or why there is none.
+    Report,
+    /// Only certified solutions come back; a validated one that does not certify is
+    /// [`SolveError::NotCertified`] (flagged).
+    Require,
 }
 
 /// A start of a solve, by name ([`InstanceSolver::start_of`]).
@@ -307,8 +325,8 @@ where
     options: PipelineOptions,
     /// [`InstanceProblem::restarts`].
     restarts: usize,
-    /// Whether a solution must be certified ([`InstanceSolver::requiring_certificate`]).
-    require_certificate: bool,
+    /// Whether a solve certifies ([`InstanceSolver::certifying`]).
+    certification: Certification,
 }
 
 /// A row-wise problem's solver: its data is the parameter vector of its data instance.
@@ -361,15 +379,22 @@ where
             other_starts_first(&mut schedule, hypotheses, other_starts.len(), restarts);
         }
         let options = problem.solve_options();
-        Ok(Self { problem, learned, validator, other_starts, other_simulators, schedule, options, restarts, require_certificate: false })
+        Ok(Self {
+            problem,
+            learned,
+            validator,
+            other_starts,
+            other_simulators,
+            schedule,
+            options,
+            restarts,
+            certification: Certification::Off,
+        })
     }
 
-    /// The same solver, returning only certified solutions when `require` is set: a validated
-    /// end point that [`InstanceSolver::certify`] cannot certify is then
-    /// [`SolveError::NotCertified`] (flagged). Default: every solution reports its certificate
-    /// or why there is none, and is returned either way.
-    pub fn requiring_certificate(mut self, require: bool) -> Self {
-        self.require_certificate = require;
+    /// The same solver, certifying its solutions as `certification` says ([`Certification`]).
+    pub fn certifying(mut self, certification: Certification) -> Self {
+        self.certification = certification;
         self
     }
 
@@ -436,9 +461,9 @@ where
     pub fn solve(&self, data: &D) -> InstanceOutcome<S::Validator, NX, D> {
         match self.run_pipeline(data, &self.schedule, true, None) {
             Ok(s) => {
-                let certified = self.certify(data, &s.x);
+                let certified = (self.certification != Certification::Off).then(|| self.certify(data, &s.x));
                 match certified {
-                    Err(reason) if self.require_certificate => {
+                    Some(Err(reason)) if self.certification == Certification::Require => {
                         Err(SolveError::NotCertified { best: s.x, check: s.check, attempts: s.attempts, reason })
                     }
                     _ => Ok(Solution { x: s.x, origin: s.origin, attempts: s.attempts, check: s.check, certified }),

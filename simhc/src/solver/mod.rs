@@ -32,8 +32,8 @@ pub mod subsystem;
 pub use estimate::{row_residual, EstimateError, EstimateInfo};
 pub use instance::{InstanceProblem, LearnedHypotheses, Ranked, RowwiseLearned};
 pub use library::{
-    sample_schedule, shipped_schedule, InstanceOutcome, InstanceSolver, Outcome, ProblemOutputs, ProblemRows, Solution, SolveError, Solver,
-    SolverError, StartId, MAX_OTHERS,
+    sample_schedule, shipped_schedule, Certification, InstanceOutcome, InstanceSolver, Outcome, ProblemOutputs, ProblemRows, Solution,
+    SolveError, Solver, SolverError, StartId, MAX_OTHERS,
 };
 pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, RandomStart};
 pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement};

@@ -522,6 +522,6 @@ impl GrpsSolvers {
             return Err(SolveError::NotValidated { best: x, check, attempts: solution.attempts }.into());
         }
         // The certificate of the pose returned (refined on all), on the 8 solved.
-        Ok(Solution { x, check, certified: self.eight.certify(&eight, &x), ..solution })
+        Ok(Solution { x, check, certified: solution.certified.map(|_| self.eight.certify(&eight, &x)), ..solution })
     }
 }

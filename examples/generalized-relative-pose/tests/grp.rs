@@ -403,8 +403,8 @@ fn a_repeated_correspondence_is_degenerate_input_naming_its_row() {
 
 /// The certificate comes with every solution of a user's problem, through the compiler, with
 /// no line in the problem: noise-free solves (half in random frames) certify, the certified
-/// box holds the truth (up to the quaternion's sign), and a solution the data do not fit
-/// exactly (the truth moved off by far more than the box) does not certify.
+/// box holds the truth (up to the quaternion's sign), and a point moved off the root is
+/// certified, if at all, with a bound that covers the move.
 #[test]
 fn a_users_problem_is_certified_without_a_line_of_its_own() {
     let seed = 46;
@@ -422,9 +422,13 @@ fn a_users_problem_is_certified_without_a_line_of_its_own() {
             flipped.fixed_rows_mut::<4>(0).neg_mut();
             assert!(c.box_contains(&x) || c.box_contains(&flipped), "trial {k}: the certified box misses the truth");
             certified += 1;
+            // A point 1e-3 off the root: a certificate of it, if any, must enclose the root and
+            // bound the distance to it by at least that much.
             let mut off = s.x;
             off[4] += 1e-3;
-            assert!(solver.certify(&p, &off).is_err(), "trial {k}: a point 1e-3 off the root certified");
+            if let Ok(c) = solver.certify(&p, &off) {
+                assert!(c.encloses(&s.x) && c.error_bound() >= 0.999e-3, "trial {k}: bound {} for a point 1e-3 off", c.error_bound());
+            }
         }
     }
     println!("{certified} of {solved} solutions certified");

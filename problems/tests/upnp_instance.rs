@@ -8,26 +8,16 @@ use nalgebra::SVector;
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use simhc::pipeline::learned::NonFiniteParameter;
-use simhc::pipeline::{Attempt, Method, PipelineError, StartError, StartProvider};
+use simhc::pipeline::{Attempt, Method, PipelineError};
 use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
 use simhc_problems::metrics::{quat_from_rotation, rotation_error_deg, translation_error_pct};
 use simhc_problems::upnp::geometry::upnp_system;
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::learned::UpnpLearned;
 use simhc_problems::upnp::refine::{levenberg_marquardt, LmOptions};
-use simhc_problems::upnp::scene::{PointBox, UpnpCorrespondence, UpnpSceneConfig};
+use simhc_problems::upnp::scene::{PointBox, UpnpSceneConfig};
 
-/// A start given by the test, in the solver's caller slot (2).
-struct Given(SVector<f64, 4>);
-
-impl StartProvider<[UpnpCorrespondence], 4> for Given {
-    fn name(&self) -> &'static str {
-        "given"
-    }
-    fn start(&self, _: &[UpnpCorrespondence]) -> Result<SVector<f64, 4>, StartError> {
-        Ok(self.0)
-    }
-}
+use simhc::solver::GivenStart as Given;
 
 /// One Simulator HC path from the caller's start, validated, no fallback.
 const FROM_GIVEN: [Attempt; 1] = [Attempt { provider: 2, method: Method::SimulatorHc }];

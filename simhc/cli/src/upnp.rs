@@ -6,9 +6,9 @@ use nalgebra::SVector;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartError, StartProvider};
+use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartProvider};
 use simhc::solver::hypotheses::other_provider;
-use simhc::solver::{FirstRowsError, LearnedHypotheses, SolveError as LibraryError};
+use simhc::solver::{FirstRowsError, GivenStart, LearnedHypotheses, SolveError as LibraryError};
 use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, translation_error_pct};
 use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
 use simhc_problems::upnp::geometry::upnp_system;
@@ -149,18 +149,6 @@ fn start_outcome(q: Option<SVector<f64, 4>>, corrs: &[UpnpCorrespondence], scene
     match q.and_then(|q| upnp_pose(&q, corrs)) {
         Some(pose) => outcome(&pose.rotation, &pose.translation, scene, micros, None),
         None => failed(micros),
-    }
-}
-
-/// A start given by the caller (the random rotation of "Rand Initial"), in the solver's slot 2.
-struct GivenStart(SVector<f64, 4>);
-
-impl StartProvider<[UpnpCorrespondence], 4> for GivenStart {
-    fn name(&self) -> &'static str {
-        "given"
-    }
-    fn start(&self, _: &[UpnpCorrespondence]) -> Result<SVector<f64, 4>, StartError> {
-        Ok(self.0)
     }
 }
 

@@ -35,7 +35,7 @@ pub use library::{
     sample_schedule, shipped_schedule, Certification, InstanceOutcome, InstanceSolver, Outcome, ProblemOutputs, ProblemRows, Solution,
     SolveError, Solver, SolverError, StartId, MAX_OTHERS,
 };
-pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, RandomStart};
+pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, GivenStart, RandomStart};
 pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement};
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
 pub use subsystem::{AllRoots, SquareSubsystem};

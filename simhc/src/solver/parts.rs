@@ -98,6 +98,21 @@ impl<Q: ProblemLayout, const NP: usize, const ND: usize> TargetParameters<SVecto
     }
 }
 
+/// A start the caller gives (a perturbed truth, a random draw made outside a timing), for any
+/// data: in the caller's slot of [`super::InstanceSolver::run_pipeline`], in the frame the
+/// pipeline solves in (the problem's canonical frame, where it has one).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GivenStart<const NX: usize>(pub SVector<f64, NX>);
+
+impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for GivenStart<NX> {
+    fn name(&self) -> &'static str {
+        "given"
+    }
+    fn start(&self, _: &D) -> Result<SVector<f64, NX>, StartError> {
+        Ok(self.0)
+    }
+}
+
 /// A random start for any layout: a uniformly random unit quaternion for each quaternion
 /// unknown, a random direction for each field whose norm an equation fixes, zero for the others
 /// (the paper's "Rand" rows).

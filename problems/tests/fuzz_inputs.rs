@@ -8,8 +8,10 @@
 
 use nalgebra::Vector3;
 use proptest::prelude::*;
+use proptest::strategy::ValueTree;
 use simhc::pipeline::{Validator, Verdict};
 use simhc::ransac::RansacOptions;
+use simhc::ProblemLayout;
 use simhc_problems::grps::declared::GrpsSolvers;
 use simhc_problems::grps::scene::GrpsCorrespondence;
 use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};

@@ -255,7 +255,7 @@ where
             return;
         }
         let schedule = self.solver.schedule();
-        let schedule = &schedule[..S::SAMPLE_ATTEMPTS.clamp(1, schedule.len().max(1)).min(schedule.len())];
+        let schedule = &schedule[..S::SAMPLE_ATTEMPTS.min(schedule.len())];
         let problem = self.solver.problem();
         let max = S::SAMPLE_CANDIDATES.max(1);
         if let Ok(found) = self.solver.plausible_end_points(&p, schedule, max, |a, b| problem.same_solution(a, b)) {

@@ -254,6 +254,10 @@ pub type Check<V, const NX: usize, const ND: usize> = CheckOf<V, NX, SVector<f64
 pub type InstancePipelineOutcome<V, const NX: usize, D> =
     Result<Solved<CheckOf<V, NX, D>, NX>, PipelineError<FirstRowsError, CheckOf<V, NX, D>, NX>>;
 
+/// One end point of [`InstanceSolver::plausible_end_points`], for a problem whose validator of
+/// the data `D` is `V`.
+pub type PlausibleEndPoint<V, const NX: usize, D> = Solved<CheckOf<V, NX, D>, NX>;
+
 /// [`InstancePipelineOutcome`] of a data vector.
 pub type PipelineOutcome<V, const NX: usize, const ND: usize> = InstancePipelineOutcome<V, NX, SVector<f64, ND>>;
 
@@ -431,7 +435,7 @@ where
         schedule: &[Attempt],
         max: usize,
         same: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
-    ) -> Result<Vec<Solved<CheckOf<S::Validator, NX, D>, NX>>, FirstRowsError> {
+    ) -> Result<Vec<PlausibleEndPoint<S::Validator, NX, D>>, FirstRowsError> {
         self.with_pipeline(data, schedule, false, None, |pipeline, canon| pipeline.plausible_end_points_canonical(canon, data, max, same))?
     }
 

@@ -12,8 +12,8 @@
 use nalgebra::SVector;
 use simhc::certify::{certify, certify_rows, choose_rows, Certificate};
 use simhc_problems::grps::declared::params_of as grps_params;
+use simhc_problems::grps::declared::GrpsSolvers;
 use simhc_problems::grps::scene::GrpsSceneConfig;
-use simhc_problems::grps::solver::{GrpsSolver, GrpsSolverOptions};
 use simhc_problems::grps::{unknowns_of, Grps7, Grps8};
 use simhc_problems::metrics::quat_from_rotation;
 use simhc_problems::upnp::geometry::upnp_system;
@@ -96,8 +96,7 @@ fn main() {
 
     let config = GrpsSceneConfig { noise_px: noise, ..GrpsSceneConfig::default() };
     // With noise, no end point is an exact root: the solver compares plausible ones instead.
-    let solver = GrpsSolver::new().expect("shipped weights load");
-    let solver = if noise > 0.0 { solver.with_options(GrpsSolverOptions::for_noise(noise, config.focal_px)) } else { solver };
+    let solver = GrpsSolvers::new(noise).expect("shipped weights load");
     let (mut data, mut tracked, mut polished) = (Row::default(), Row::default(), Row::default());
     let mut polish_moves = Vec::new();
     for seed in 0..trials as u64 {
@@ -105,11 +104,11 @@ fn main() {
         let t = Instant::now();
         let pose = solver.solve(black_box(&scene.correspondences));
         let solve = t.elapsed().as_secs_f64() * 1e6;
-        let Ok(pose) = pose else { continue };
+        let Ok(solution) = pose else { continue };
         let truth = unknowns_of(&scene.rotation, &scene.translation, scene.scale);
         let p8 = grps_params::<96>(&scene.correspondences).expect("8 correspondences");
         let p7 = grps_params::<84>(&scene.correspondences[..7]).expect("7 correspondences");
-        let x = pose.unknowns();
+        let x = solution.x;
         for (row, which) in [(&mut data, 8), (&mut tracked, 7)] {
             row.solved += 1;
             row.solve_us.push(solve);

@@ -1,5 +1,5 @@
 //! What the built-ins' robust estimators share: their error
-//! ([`crate::upnp::ransac::UpnpEstimator::estimate`], [`crate::grps::ransac::GrpsEstimator::estimate`]).
+//! ([`crate::upnp::ransac::UpnpEstimator::estimate`]).
 
 use simhc::ransac::{ransac, Estimator, RansacOptions};
 use simhc::solver::EstimateInfo;

@@ -13,8 +13,8 @@
 use nalgebra::SVector;
 use simhc::certify::{certify, certify_rows, choose_rows, Certificate};
 use simhc_problems::grps::declared::params_of as grps_params;
+use simhc_problems::grps::declared::GrpsSolvers;
 use simhc_problems::grps::scene::GrpsSceneConfig;
-use simhc_problems::grps::solver::GrpsSolver;
 use simhc_problems::grps::{unknowns_of, Grps7, Grps8};
 use simhc_problems::metrics::quat_from_rotation;
 use simhc_problems::upnp::geometry::upnp_system;
@@ -79,7 +79,7 @@ fn upnp_noise_free_answers_certify_and_no_certificate_misses_the_truth() {
 
 #[test]
 fn grps8_noise_free_answers_certify_and_no_certificate_misses_the_truth() {
-    let solver = GrpsSolver::new().expect("shipped weights load");
+    let solver = GrpsSolvers::new(0.0).expect("shipped weights load");
     let config = GrpsSceneConfig::default(); // 8 points, noise-free
     let (mut data, mut tracked) = (Tally::default(), Tally::default());
     for seed in 0..1000u64 {
@@ -96,10 +96,10 @@ fn grps8_noise_free_answers_certify_and_no_certificate_misses_the_truth() {
         if certify::<Grps7, 8, 8, 84>(&truth, &p7).is_ok_and(|c| holds_truth(&c, &truth)) {
             tracked.truth_certified += 1;
         }
-        let Ok(pose) = solver.solve(&scene.correspondences) else { continue };
+        let Ok(solution) = solver.solve(&scene.correspondences) else { continue };
         data.solved += 1;
         tracked.solved += 1;
-        let x = pose.unknowns();
+        let x = solution.x;
         if let Ok(cert) = choose_rows::<Grps8, 8, 9, 96>(&x, &p8).and_then(|rows| certify_rows::<Grps8, 8, 9, 96>(&x, &p8, &rows)) {
             data.certified += 1;
             if !holds_truth(&cert, &truth) {

@@ -15,8 +15,8 @@ use simhc::pipeline::{Attempt, Method, Origin};
 use simhc::solver::hypotheses::other_provider;
 use simhc::solver::{sample_schedule, DeclaredProblem, LearnedHypotheses, Solver};
 use simhc_problems::grps::declared::Grps8Problem;
+use simhc_problems::grps::learned::GrpsNetwork;
 use simhc_problems::grps::scene::GrpsSceneConfig;
-use simhc_problems::grps::solver::GrpsSolver;
 
 #[test]
 fn a_solve_short_of_the_fallback_allocates_nothing() {
@@ -95,19 +95,21 @@ fn the_predicted_starts_allocate_nothing() {
     assert_eq!(allocations, 0, "allocations over 60 predicted starts");
 }
 
-/// `GrpsSolver::predict` (on the stack up to 8 correspondences) returns the first of
-/// `predict_all` (ranked by a stable sort), on 8 correspondences and on 12 (the heap path).
+/// [`GrpsNetwork::predict`], which the predicted starts run inside a solve, allocates nothing
+/// for 8 correspondences (on the stack), and gives a pose for 12 (the heap path).
 #[test]
-fn predict_is_the_first_of_predict_all() {
-    let solver = GrpsSolver::new().expect("shipped weights");
+fn predict_allocates_nothing_for_eight_correspondences() {
+    let network = GrpsNetwork::shipped().expect("shipped weights");
     let mut rng = ChaCha8Rng::seed_from_u64(45);
     for points in [8, 12] {
         let config = GrpsSceneConfig { points, noise_px: 1.0, ..GrpsSceneConfig::default() };
         for _ in 0..10 {
             let corrs = config.sample(&mut rng).expect("valid config").correspondences;
-            let first = solver.predict(&corrs).expect("a prediction");
-            let all = solver.predict_all(&corrs).expect("predictions");
-            assert_eq!(first, all[0], "{points} correspondences");
+            let (pose, n) = counted(|| network.predict(&corrs));
+            assert!(pose.is_ok(), "{points} correspondences: {pose:?}");
+            if points == 8 {
+                assert_eq!(n, 0, "allocations of a prediction from 8 correspondences");
+            }
         }
     }
 }

@@ -248,7 +248,7 @@ fn grps_solvers_refine_on_all_correspondences() {
 fn the_estimator_finds_the_inliers_of_grps8() {
     let seed = 21;
     println!("seed {seed}");
-    let solver = Solver::with_weights(Grps8Problem::new(), simhc_problems::grps::solver::GRPS_WEIGHTS, 1.0).expect("shipped weights");
+    let solver = Solver::with_weights(Grps8Problem::new(), simhc_problems::grps::learned::GRPS_WEIGHTS, 1.0).expect("shipped weights");
     let problem = solver.problem();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for trial in 0..3 {
@@ -277,7 +277,7 @@ fn the_estimator_finds_the_inliers_of_grps8() {
 fn a_restart_turns_the_prediction_and_resolves_translation_and_scale() {
     use simhc::solver::restarts::restart_provider;
     use simhc::solver::{restart_rotation, MAX_RESTARTS};
-    use simhc_problems::grps::solver::GRPS_RESTART_ANGLES_DEG;
+    use simhc_problems::grps::declared::GRPS_RESTART_ANGLES_DEG;
     let seed = 21;
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);

@@ -1,4 +1,4 @@
-//! Frame invariance of the shipped 8-point GRPS solver (proptest): the pose transforms exactly
+//! Frame invariance of the shipped 8-point GRPS solver ([`GrpsSolvers`], proptest): the pose transforms exactly
 //! with rigid changes of either view's frame, with a change of units of view 2, and with any
 //! order of the correspondences.
 //!
@@ -10,8 +10,9 @@
 use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
 use rand::SeedableRng;
+use simhc_problems::grps::declared::GrpsSolvers;
+use simhc_problems::grps::pose::GrpsPose;
 use simhc_problems::grps::scene::{GrpsCorrespondence, GrpsSceneConfig};
-use simhc_problems::grps::solver::GrpsSolver;
 use simhc_problems::upnp::scene::random_rotation;
 
 proptest! {
@@ -19,7 +20,8 @@ proptest! {
 
     #[test]
     fn noise_free_poses_follow_the_frames(seed in 0u64..1_000_000, frame_seed in 0u64..1_000_000, shift in 0usize..8, units in 0.2f64..5.0) {
-        let solver = GrpsSolver::new().expect("shipped weights load");
+        let solvers = GrpsSolvers::new(0.0).expect("shipped weights load");
+        let solve = |c: &[GrpsCorrespondence]| solvers.solve(c).map(|s| GrpsPose::from_unknowns(&s.x).expect("a pose"));
         let scene = GrpsSceneConfig::default().sample_seeded(seed).expect("valid config");
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(frame_seed);
         let (v1, v2) = (random_rotation(&mut rng), random_rotation(&mut rng));
@@ -31,8 +33,8 @@ proptest! {
             .map(|c| GrpsCorrespondence { f: v1 * c.f, v: v1 * c.v + t1, fp: v2 * c.fp, vp: v2 * c.vp * units + t2 })
             .collect();
         moved.rotate_left(shift);
-        let a = solver.solve(&scene.correspondences);
-        let b = solver.solve(&moved);
+        let a = solve(&scene.correspondences);
+        let b = solve(&moved);
         // Noise-free 8-point scenes always validate (1000 / 1000 in `simhc bench grps`).
         prop_assert!(a.is_ok() && b.is_ok(), "not validated: {:?} / {:?}", a.err(), b.err());
         if let (Ok(a), Ok(b)) = (a, b) {

@@ -1,19 +1,21 @@
-//! GRPS inside the generic RANSAC loop: the pose of a seeded 200-correspondence scene with 30 %
-//! mismatches and 2 px noise is recovered; the residual rejects points behind a camera.
-//! Seeds fixed and printed; no timing is asserted.
+//! GRPS inside the library solver's robust estimator ([`simhc::solver::Solver::estimate`] of
+//! the 7-point solver, up to 4 validated roots per sample): the pose of a seeded
+//! 200-correspondence scene with 30 % mismatches and 2 px noise is recovered; bad input is
+//! named. Seeds fixed and printed; no timing is asserted.
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::ransac::RansacOptions;
-use simhc_problems::grps::geometry::GrpsError;
-use simhc_problems::grps::ransac::{reprojection_error, GrpsEstimator};
+use simhc::solver::EstimateError;
+use simhc_problems::grps::declared::{GrpsSolvers, RANSAC_NOISE_PX};
+use simhc_problems::grps::pose::GrpsPose;
+use simhc_problems::grps::row_numbers;
 use simhc_problems::grps::scene::GrpsSceneConfig;
-use simhc_problems::grps::solver::{GrpsPose, GrpsSolver, GrpsSolverOptions};
 use simhc_problems::metrics::{rotation_error_deg, scale_error_pct, translation_error_pct};
 
 #[test]
 fn ransac_recovers_the_pose_with_30_percent_outliers() {
-    let estimator = GrpsEstimator::new(GrpsSolver::new().expect("weights").with_options(GrpsSolverOptions::for_ransac()), 7);
+    let solvers = GrpsSolvers::new(RANSAC_NOISE_PX).expect("weights");
     let mut recovered = 0;
     for seed in [11u64, 12, 13] {
         println!("seed {seed}");
@@ -29,7 +31,9 @@ fn ransac_recovers_the_pose_with_30_percent_outliers() {
             outlier[i] = true;
         }
         let options = RansacOptions { seed, local_optimization: true, ..RansacOptions::default() };
-        let (model, r) = estimator.estimate(&scene.correspondences, &options).expect("a model");
+        let rows: Vec<f64> = row_numbers(&scene.correspondences).collect();
+        let (x, r) = solvers.seven.estimate(&rows, &[], &options).expect("a model");
+        let model = GrpsPose::from_unknowns(&x).expect("a pose");
         let er = rotation_error_deg(&model.rotation, &scene.rotation);
         let et = translation_error_pct(&model.translation, &scene.translation);
         let es = scale_error_pct(model.scale, scene.scale);
@@ -48,25 +52,20 @@ fn ransac_recovers_the_pose_with_30_percent_outliers() {
 }
 
 #[test]
-fn reprojection_error_is_zero_at_the_truth_and_infinite_behind_a_camera() {
-    let scene = GrpsSceneConfig::default().sample_seeded(2).expect("valid config");
-    let truth = GrpsPose { rotation: scene.rotation, translation: scene.translation, scale: scene.scale };
-    for c in &scene.correspondences {
-        assert!(reprojection_error(&truth, c) < 1e-9);
-        let mut flipped = *c;
-        flipped.f = -c.f;
-        assert_eq!(reprojection_error(&truth, &flipped), f64::INFINITY);
-    }
-}
-
-#[test]
 fn the_estimator_names_a_bad_correspondence_and_needs_a_sample() {
-    let estimator = GrpsEstimator::new(GrpsSolver::new().expect("weights").with_options(GrpsSolverOptions::for_ransac()), 8);
+    let solvers = GrpsSolvers::new(RANSAC_NOISE_PX).expect("weights");
     let mut scene = GrpsSceneConfig::default().sample_seeded(3).expect("valid config");
     let options = RansacOptions::poselib(0.01);
-    let err = estimator.estimate(&scene.correspondences[..7], &options).unwrap_err();
-    assert_eq!(err, GrpsError::TooFewCorrespondences { got: 7, need: 8 }.into());
+    let rows: Vec<f64> = row_numbers(&scene.correspondences[..7]).collect();
+    let err = solvers.eight.estimate(&rows, &[], &options).unwrap_err();
+    assert_eq!(err, EstimateError::TooFew { rows: 7, needed: 8 });
     scene.correspondences[5].fp.z = f64::NAN;
-    let err = estimator.estimate(&scene.correspondences, &options).unwrap_err();
-    assert_eq!(err, GrpsError::NonFinite { index: 5 }.into());
+    let rows: Vec<f64> = row_numbers(&scene.correspondences).collect();
+    match solvers.seven.estimate(&rows, &[], &options).unwrap_err() {
+        EstimateError::NonFinite(at) => {
+            assert_eq!(at.row, Some(5));
+            assert!(at.to_string().contains("fp"), "{at}");
+        }
+        other => panic!("a NaN in correspondence 5: {other:?}"),
+    }
 }

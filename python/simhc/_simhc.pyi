@@ -128,7 +128,7 @@ def estimate_grps(
     refine_rounds: int = 2,
 ) -> tuple[Pose, Info]:
     """Robust generalized relative pose and scale from (N, 3) arrays with outliers, N >= 7.
-    ``threshold``: largest reprojection error (sine of an angle, both views) for an inlier.
+    ``threshold``: largest angular residual (sine of the angle between a bearing and its epipolar plane) for an inlier.
     ``info``: iterations, num_inliers, inlier_ratio, inlier_mask, score, refinements, models."""
 
 grp: ModuleType

@@ -1,4 +1,4 @@
-//! The built-in problems, UPnP and GRPS, through their own solvers and robust estimators
+//! The built-in problems, UPnP and GRPS, through their library solvers and robust estimators
 //! (built once per process).
 
 use crate::arrays::{same_count, vectors};
@@ -7,9 +7,12 @@ use crate::pose::Pose;
 use crate::problem::{info_dict, ransac_options, solve_failure};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use simhc_problems::grps::ransac::GrpsEstimator;
+use simhc::solver::EstimateError;
+use simhc_problems::grps::declared::{GrpsSolvers, GrpsSolversError, RANSAC_NOISE_PX};
+use simhc_problems::grps::geometry::validate;
+use simhc_problems::grps::pose::GrpsPose;
+use simhc_problems::grps::row_numbers;
 use simhc_problems::grps::scene::GrpsCorrespondence;
-use simhc_problems::grps::solver::{GrpsSolveError, GrpsSolver, GrpsSolverOptions};
 use simhc_problems::robust::RobustError;
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::ransac::UpnpEstimator;
@@ -34,10 +37,22 @@ fn upnp_library() -> Result<&'static UpnpLibrarySolver, Failure> {
         .map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))
 }
 
-fn grps_solver() -> Result<&'static GrpsSolver, Failure> {
-    static SOLVER: OnceLock<Result<GrpsSolver, String>> = OnceLock::new();
-    SOLVER
-        .get_or_init(|| GrpsSolver::new().map_err(|e| e.to_string()))
+/// The GRPS library solvers for noise-free data (`GrpsSolvers`: 7, 8 or more
+/// correspondences), built once.
+fn grps_solvers() -> Result<&'static GrpsSolvers, Failure> {
+    static SOLVERS: OnceLock<Result<GrpsSolvers, String>> = OnceLock::new();
+    SOLVERS
+        .get_or_init(|| GrpsSolvers::new(0.0).map(|s| s.certifying(simhc::solver::Certification::Report)).map_err(|e| e.to_string()))
+        .as_ref()
+        .map_err(|e| Failure::NoSolution(format!("the shipped GRPS weights: {e}")))
+}
+
+/// The GRPS library solvers whose validator takes a RANSAC sample's pose
+/// ([`RANSAC_NOISE_PX`]), built once.
+fn grps_estimators() -> Result<&'static GrpsSolvers, Failure> {
+    static SOLVERS: OnceLock<Result<GrpsSolvers, String>> = OnceLock::new();
+    SOLVERS
+        .get_or_init(|| GrpsSolvers::new(RANSAC_NOISE_PX).map_err(|e| e.to_string()))
         .as_ref()
         .map_err(|e| Failure::NoSolution(format!("the shipped GRPS weights: {e}")))
 }
@@ -87,12 +102,24 @@ fn noise_angle(noise: f64) -> Result<f64, Failure> {
     }
 }
 
-fn grps_failure(e: GrpsSolveError) -> Failure {
+fn grps_failure(e: GrpsSolversError) -> Failure {
     match e {
-        GrpsSolveError::Input(_) | GrpsSolveError::NoCanonicalFrame => Failure::Input(e.to_string()),
-        GrpsSolveError::NotValidated(_) => Failure::NotValidated(e.to_string()),
-        _ => Failure::NoSolution(e.to_string()),
+        GrpsSolversError::Count(_) => Failure::Input(e.to_string()),
+        GrpsSolversError::Solve(e) => solve_failure(e),
     }
+}
+
+/// The library estimator's error as an exception: bad input, or no model.
+fn estimate_failure(e: EstimateError) -> Failure {
+    match e {
+        EstimateError::NoModel { .. } | EstimateError::NotSolved { .. } => Failure::NoSolution(e.to_string()),
+        _ => Failure::Input(e.to_string()),
+    }
+}
+
+/// A GRPS solution's unknowns as a pose, or why not.
+fn grps_pose(x: &nalgebra::SVector<f64, 8>) -> Result<GrpsPose, Failure> {
+    GrpsPose::from_unknowns(x).ok_or_else(|| Failure::NoSolution("the solution has no rotation".into()))
 }
 
 /// Generalized absolute pose (UPnP) from N >= 3 correspondences of a multi-camera rig:
@@ -128,9 +155,11 @@ pub fn upnp(py: Python<'_>, points: &Bound<'_, PyAny>, bearings: &Bound<'_, PyAn
 #[pyfunction]
 pub fn grps(py: Python<'_>, f: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>, fp: &Bound<'_, PyAny>, vp: &Bound<'_, PyAny>) -> PyResult<Pose> {
     let corrs = grps_correspondences(f, v, fp, vp)?;
-    let solver = grps_solver()?;
-    let pose = py.detach(|| solver.solve(&corrs)).map_err(grps_failure)?;
-    Pose::new(py, &pose.rotation, &pose.translation, Some(pose.scale))
+    let solvers = grps_solvers()?;
+    let solution = py.detach(|| solvers.solve(&corrs)).map_err(grps_failure)?;
+    let pose = grps_pose(&solution.x)?;
+    Ok(Pose::new(py, &pose.rotation, &pose.translation, Some(pose.scale))?
+        .certified(solution.certified.and_then(|c| c.ok()).map(|c| c.error_bound())))
 }
 
 /// Robust generalized absolute pose (LO-RANSAC over samples of 4 correspondences solved by
@@ -174,8 +203,8 @@ pub fn estimate_upnp<'py>(
 /// Robust generalized relative pose and scale (LO-RANSAC over samples of 7 correspondences,
 /// up to 4 roots per sample scored by consensus, PoseLib's defaults) from N >= 7
 /// correspondences with outliers, as `grps`'s (N, 3) arrays. `threshold` is the largest
-/// reprojection error (sine of the angle between a bearing and its triangulated point, in both
-/// views) for an inlier, default the paper's 0.01 (8 px at 800 px).
+/// angular residual (sine of the angle between a first-view bearing and the plane of the
+/// correspondence's epipolar constraint) for an inlier, default the paper's 0.01 (8 px at 800 px).
 ///
 /// Returns `(pose, info)` with `pose.s` the scale: `info` holds `iterations`, `num_inliers`,
 /// `inlier_ratio`, `inlier_mask` (bool array of N), `score`, `refinements` and `models`.
@@ -199,8 +228,14 @@ pub fn estimate_grps<'py>(
 ) -> PyResult<(Pose, Bound<'py, PyDict>)> {
     let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
     let corrs = grps_correspondences(f, v, fp, vp)?;
-    let solver = grps_solver()?.clone().with_options(GrpsSolverOptions::for_ransac());
-    let estimator = GrpsEstimator::new(solver, 7);
-    let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
+    // Degenerate data as a whole (one camera pair, a central view) is an input error, not a
+    // sample that fails to validate; a NaN is named by the estimator (correspondence, field).
+    let rows: Vec<f64> = row_numbers(&corrs).collect();
+    if corrs.len() >= 7 && rows.iter().all(|v| v.is_finite()) {
+        validate(&corrs).map_err(|e| Failure::Input(e.to_string()))?;
+    }
+    let solvers = grps_estimators()?;
+    let (x, info) = py.detach(|| solvers.seven.estimate(&rows, &[], &options)).map_err(estimate_failure)?;
+    let pose = grps_pose(&x)?;
     Ok((Pose::new(py, &pose.rotation, &pose.translation, Some(pose.scale))?, info_dict(py, &info)?))
 }

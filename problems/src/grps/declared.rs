@@ -1,9 +1,8 @@
 //! GRPS as a declared problem ([`simhc::solver::DeclaredProblem`]), on 7 and on 8
-//! correspondences ([`Grps7Problem`], [`Grps8Problem`]; [`GrpsSolvers`] dispatches by count):
-//! the same compiled instances, shipped weights, canonical frames, geometric simulator and
-//! all-roots start system as [`super::solver::GrpsSolver`], assembled by the runtime's generic
-//! [`Solver`] instead of by hand. `simhc bench grps7|grps8` run them beside `simhc bench grps`
-//! (the hand-assembled solver), so the two assemblies are compared on the same trials.
+//! correspondences ([`Grps7Problem`], [`Grps8Problem`]; [`GrpsSolvers`] dispatches by count),
+//! assembled by the runtime's generic [`Solver`]: the one GRPS solver behind `simhc solve grps`,
+//! `simhc bench grps|grps7|grps8`, Python `simhc.grps` / `simhc.estimate_grps` and the
+//! trainer's evaluation.
 //!
 //! - tracked and data instance [`Grps8`] (or [`Grps7`]): measured, one path on all 8 correspondences
 //!   validates more often than one on the square first 7 (81 against 53 % with the geometric
@@ -15,27 +14,26 @@
 //!   rotation, the translation and the log scale ([`GrpsOutputs`]);
 //! - the other starts are the network's predicted rotation with least-squares `(t, s)`, and the
 //!   network on the swapped views ([`PredictedStart`]);
-//! - the restarts ([`DeclaredProblem::restart`]) are [`GrpsSolver`]'s 65: the prediction turned
-//!   by 20-180 degrees about 13 fixed axes, with least-squares `(t, s)`.
-//!
-//! - the solve settings ([`DeclaredProblem::options`]) are [`GrpsSolver`]'s: end points
-//!   polished by Gauss-Newton, 4 more attempts after a plausible (noisy) one.
+//! - the restarts ([`DeclaredProblem::restart`]) are 65: the prediction turned by 20-180
+//!   degrees about 13 fixed axes ([`GRPS_RESTART_ANGLES_DEG`]), with least-squares `(t, s)`;
+//! - the solve settings ([`DeclaredProblem::options`], [`grps_pipeline_options`]): end points
+//!   polished by Gauss-Newton, 4 more attempts after a plausible (noisy) one;
+//! - a RANSAC sample ([`Solver::estimate`]) keeps up to 4 distinct validated end points.
 //!
 //! [`GrpsSolvers`] takes any number of correspondences from 7: more than 8 are checked as a
-//! whole, solved on 8 spread over the camera pairs ([`super::spread_first`], as in
-//! [`GrpsSolver`]), refined on all and validated on all. BENCHMARKS.md (2026-12-04, evening)
-//! compares the two assemblies on the same trials: the same success and fallbacks, means within
-//! 1.16x.
+//! whole, solved on 8 spread over the camera pairs ([`super::spread_first`]), refined on all
+//! and validated on all.
 //!
 //! [`Solver`]: simhc::solver::Solver
+//! [`Solver::estimate`]: simhc::solver::Solver::estimate
 
 use super::features::{swap_pose, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
 use super::geometry::{validate, GrpsError};
+use super::learned::{GrpsNetwork, GRPS_WEIGHTS};
+use super::pose::GrpsPose;
 use super::refine::{angular_residual, refine_pose, translation_scale_for_rotation, LmOptions};
 use super::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
-use super::solver::{
-    pipeline_options, GrpsPose, GrpsSolver, GrpsSolverOptions, GrpsValidator, Validation, GRPS_RESTART_ANGLES_DEG, GRPS_WEIGHTS,
-};
+use super::validation::{GrpsValidator, Validation};
 use super::{correspondence_of_row, correspondences_of, row_numbers, spread_first, unknowns_of, Grps7, Grps8, ROW_LEN};
 use crate::metrics::{random_unit_quaternion, rotation_error_deg, rotation_from_quat, scale_error_pct, translation_error_pct};
 use crate::start_systems::{run_monodromy_grps7, solve_grps7};
@@ -52,7 +50,9 @@ use simhc::solver::{
     Solution, SolveError, Solver, SolverError,
 };
 use simhc::start_system::{MonodromyConfig, MonodromyReport, StartSystemError};
+use simhc::tracker::{NewtonOptions, TrackerOptions};
 use simhc::{MinNormSimulator, ProblemLayout};
+use std::sync::Arc;
 
 /// Unknowns `[q, t, s]`.
 pub type Unknowns = SVector<f64, 8>;
@@ -62,18 +62,27 @@ pub struct GrpsProblem<const N: usize> {
     all_roots: GrpsAllRoots,
     outputs: GrpsOutputs,
     rows: GrpsRows<N>,
+    /// The network of the other starts ([`PredictedStart`]); `None` when it did not load (no
+    /// other starts then).
+    network: Option<Arc<GrpsNetwork>>,
 }
 
-/// GRPS on 7 correspondences (minimal: every real root fits them, so a validated pose may be
-/// another root; see [`GrpsSolver::solve`]).
+/// GRPS on 7 correspondences (minimal: every real root fits them exactly, so a validated pose
+/// may be another root; on the benchmark's 7-point trials about a fifth of the validated poses
+/// are. Give 8 or more for a unique pose, or estimate from many with outliers).
 pub type Grps7Problem = GrpsProblem<7>;
 /// GRPS on 8 correspondences.
 pub type Grps8Problem = GrpsProblem<8>;
 
 impl<const N: usize> GrpsProblem<N> {
-    /// The problem with the shipped start system.
+    /// The problem with the shipped start system and network.
     pub fn new() -> Self {
-        Self { all_roots: GrpsAllRoots, outputs: GrpsOutputs, rows: GrpsRows }
+        Self::with_network(GrpsNetwork::shipped().ok())
+    }
+
+    /// The problem whose other starts run `network` (give the one of the solver's weights).
+    pub fn with_network(network: Option<GrpsNetwork>) -> Self {
+        Self { all_roots: GrpsAllRoots, outputs: GrpsOutputs, rows: GrpsRows, network: network.map(Arc::new) }
     }
 }
 
@@ -131,8 +140,41 @@ fn degenerate(e: GrpsError) -> DegenerateInput {
     }
 }
 
-/// Restarts of the declared problems: 13 axes times the angles of [`GrpsSolver`]'s restarts.
-const RESTARTS: usize = 13 * GRPS_RESTART_ANGLES_DEG.len();
+/// The restarts' rotations (degrees, each about 13 fixed axes,
+/// [`simhc::solver::restart_rotation`]): 65 Gauss-Newton restarts of about 5 us each, which
+/// leave a third as many trials to the 12 ms all-roots fallback as 24 restarts did
+/// (BENCHMARKS.md, 2026-12-04).
+pub const GRPS_RESTART_ANGLES_DEG: [f64; 5] = [20.0, 45.0, 90.0, 135.0, 180.0];
+
+/// Restarts of the declared problems: 13 axes times [`GRPS_RESTART_ANGLES_DEG`].
+pub const RESTARTS: usize = 13 * GRPS_RESTART_ANGLES_DEG.len();
+
+/// Attempts of a RANSAC sample ([`DeclaredProblem::SAMPLE_ATTEMPTS`]): the solver's schedule
+/// short of the restarts, with the shipped network of one hypothesis: Gauss-Newton from the
+/// learned start (refined on all rows, then again) and from the three other starts, then a
+/// path with each simulator from each of the four. Measured on `simhc bench grps --experiment
+/// ransac --ransac-trials 100 --seed 1`: 98 % at 40 % outliers with the first 8 attempts (the
+/// paths from the first two starts only), against 99 % of the hand-wired estimator's 8.
+pub const SAMPLE_ATTEMPTS: usize = 13;
+
+/// The noise (pixels at 800 px) of the validator of a RANSAC sample's pose: plausible up to an
+/// angular residual of `0.02` (`10 noise / 800`), two points behind a camera allowed; the
+/// threshold of the hand-wired estimator this one replaced.
+pub const RANSAC_NOISE_PX: f64 = 1.6;
+
+/// The solve settings of GRPS: paths not required to converge to the last digit (an end point
+/// short of the final tolerance is polished by Gauss-Newton, at most 20 iterations, and must
+/// then reach an update below `1e-7`), 4 more attempts after a plausible (noisy) end point, the
+/// best returned, and the all-roots fallback.
+pub fn grps_pipeline_options() -> PipelineOptions {
+    PipelineOptions {
+        tracker: TrackerOptions { require_final_convergence: false, ..TrackerOptions::single_path() },
+        extra_attempts: 4,
+        fallback: true,
+        newton: NewtonOptions { max_iterations: 20, ..NewtonOptions::default() },
+        polish: true,
+    }
+}
 
 /// Restart `k` around `x` for the correspondences `corrs` ([`DeclaredProblem::restart`]).
 fn restart(corrs: &[GrpsCorrespondence], x: &Unknowns, k: usize) -> Option<Unknowns> {
@@ -177,13 +219,12 @@ impl OutputDecoding for GrpsOutputs {
     }
 }
 
-/// A start from the shipped network beside the learned start's own hypotheses, as in
-/// [`GrpsSolver`]'s starts of the same names (one per [`PredictedKind`]). Tried only after the
-/// learned hypotheses' Gauss-Newton; allocates nothing when the network gives a pose (the
-/// correspondences on the stack, the pose cached per thread in fixed-size storage); an error's
-/// message is a `String`.
+/// A start from the problem's network beside the learned start's own hypotheses (one per
+/// [`PredictedKind`]). Tried only after the learned hypotheses' Gauss-Newton; allocates
+/// nothing when the network gives a pose (the correspondences on the stack, the pose cached
+/// per thread in fixed-size storage); an error's message is a `String`.
 pub struct PredictedStart {
-    solver: GrpsSolver,
+    network: Arc<GrpsNetwork>,
     kind: PredictedKind,
 }
 
@@ -218,14 +259,19 @@ type Prediction = Result<(Matrix3<f64>, Vector3<f64>, f64), String>;
 /// Parameters a [`PredictedStart`] keeps of the data it last ran on (8 correspondences).
 const CACHED_PARAMS: usize = 8 * ROW_LEN;
 
+/// One cached prediction: the network's address, the data's length and numbers, the pose.
+type CachedPrediction = (usize, usize, [f64; CACHED_PARAMS], Prediction);
+
 thread_local! {
-    /// The data the shipped network last ran on in this thread (its length and numbers), and
-    /// its pose, for the plain and the swapped views: the three [`PredictedStart`]s of a solve,
-    /// each tried with Gauss-Newton first and with paths later, run the network twice in all
-    /// instead of once per start and method. Every `PredictedStart` runs the same shipped
-    /// weights, so one cache serves them all. Fixed-size, so a solve allocates nothing here (but the message of a cached error).
-    static PREDICTED: std::cell::RefCell<[(usize, [f64; CACHED_PARAMS], Prediction); 2]> =
-        const { std::cell::RefCell::new([(0, [0.0; CACHED_PARAMS], Err(String::new())), (0, [0.0; CACHED_PARAMS], Err(String::new()))]) };
+    /// The network and data of the last prediction in this thread, and its pose, for the plain
+    /// and the swapped views: the three [`PredictedStart`]s of a solve, each tried with
+    /// Gauss-Newton first and with paths later, run the network twice in all instead of once
+    /// per start and method. Keyed by the network's address too, so solvers of other weights
+    /// in one thread do not share poses. Fixed-size, so a solve allocates nothing here (but
+    /// the message of a cached error).
+    static PREDICTED: std::cell::RefCell<[CachedPrediction; 2]> = const {
+        std::cell::RefCell::new([(0, 0, [0.0; CACHED_PARAMS], Err(String::new())), (0, 0, [0.0; CACHED_PARAMS], Err(String::new()))])
+    };
 }
 
 impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for PredictedStart {
@@ -256,18 +302,20 @@ impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for PredictedStart {
                 for c in &mut swapped[..n] {
                     *c = GrpsCorrespondence { f: c.fp, v: c.vp, fp: c.f, vp: c.v };
                 }
-                let pose = self.solver.predict(&swapped[..n]).map_err(|e| e.to_string())?;
+                let pose = self.network.predict(&swapped[..n]).map_err(|e| e.to_string())?;
                 swap_pose(&pose.rotation, &pose.translation, pose.scale)
             } else {
-                let pose = self.solver.predict(corrs).map_err(|e| e.to_string())?;
+                let pose = self.network.predict(corrs).map_err(|e| e.to_string())?;
                 (pose.rotation, pose.translation, pose.scale)
             };
             Ok(pose)
         };
         let (r, t, s) = PREDICTED
             .with_borrow_mut(|cache| {
-                let (len, data, pose) = &mut cache[usize::from(self.kind.swapped())];
-                if data[..*len] != *p.as_slice() {
+                let address = Arc::as_ptr(&self.network) as usize;
+                let (network, len, data, pose) = &mut cache[usize::from(self.kind.swapped())];
+                if *network != address || data[..*len] != *p.as_slice() {
+                    *network = address;
                     *len = NP;
                     data[..NP].copy_from_slice(p.as_slice());
                     *pose = predict();
@@ -315,8 +363,15 @@ macro_rules! grps_problem {
             const ABOUT: &'static str = $about;
             const ERRORS: &'static [&'static str] = &["E_R deg", "E_t %", "E_s %"];
             const REFINES: bool = true;
-            /// [`GrpsSolver`]'s restarts: 13 axes times [`GrpsSolverOptions::restart_angles_deg`].
+            /// 13 axes times [`GRPS_RESTART_ANGLES_DEG`].
             const RESTARTS: usize = RESTARTS;
+            /// Up to 4 distinct validated end points per RANSAC sample: with 7 correspondences
+            /// every real root fits the sample exactly, and the consensus picks (measured on
+            /// `simhc bench grps --experiment ransac` at 40 % outliers: 99.7 % with 4 hypotheses
+            /// a sample, 97 % with one).
+            const SAMPLE_CANDIDATES: usize = 4;
+            /// The learned start's and the other starts' Gauss-Newton, then the first paths.
+            const SAMPLE_ATTEMPTS: usize = SAMPLE_ATTEMPTS;
 
             fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, $np>, Unknowns) {
                 let config = GrpsSceneConfig { points: $rows, noise_px: noise, ..GrpsSceneConfig::default() };
@@ -328,12 +383,7 @@ macro_rules! grps_problem {
                 }
             }
             fn validator(&self, noise: f64) -> GrpsValidator {
-                let options = if noise > 0.0 {
-                    GrpsSolverOptions::for_noise(noise, GrpsSceneConfig::default().focal_px)
-                } else {
-                    GrpsSolverOptions::default()
-                };
-                GrpsValidator::of(&options)
+                GrpsValidator::for_noise(noise, GrpsSceneConfig::default().focal_px)
             }
             fn errors(&self, x: &Unknowns, truth: &Unknowns) -> Vec<f64> {
                 errors(x, truth).to_vec()
@@ -357,11 +407,9 @@ macro_rules! grps_problem {
                 let to_user = move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.from_canonical(r, t, s));
                 Some((canonical, CanonicalFrame::new(to_canonical, to_user)))
             }
-            /// [`GrpsSolver`]'s: paths not required to converge to the last digit, their end
-            /// points polished by Gauss-Newton (at most 20 iterations), and 4 more attempts
-            /// after a plausible (noisy) end point, the best returned.
+            /// [`grps_pipeline_options`].
             fn options(&self) -> PipelineOptions {
-                pipeline_options(&GrpsSolverOptions::default())
+                grps_pipeline_options()
             }
             fn input_rows(&self) -> Option<&dyn InputRows> {
                 Some(&self.rows)
@@ -392,15 +440,15 @@ macro_rules! grps_problem {
             /// The predicted rotation with least-squares `(t, s)`, the swapped prediction and its
             /// rotation with least-squares `(t, s)` ([`PredictedStart`]).
             fn other_starts(&self) -> Vec<OtherStart<8, $np>> {
-                let Ok(solver) = GrpsSolver::new() else { return Vec::new() };
-                PredictedKind::ALL.map(|kind| Box::new(PredictedStart { solver: solver.clone(), kind }) as OtherStart<8, $np>).into()
+                let Some(network) = &self.network else { return Vec::new() };
+                PredictedKind::ALL.map(|kind| Box::new(PredictedStart { network: network.clone(), kind }) as OtherStart<8, $np>).into()
             }
             fn other_simulators(&self) -> Vec<OtherSimulator<8, $nf, $np, $np>> {
                 vec![Box::new(Generic(MinNormSimulator::<$instance>::new()))]
             }
             /// The prediction's rotation turned about fixed axes ([`rotated_restart`]) with its
             /// least-squares `(t, s)` (the prediction's own where there is none with `s > 0`),
-            /// as [`GrpsSolver`]'s perturbed starts.
+            /// around the first-ranked hypothesis.
             fn restart(&self, p: &SVector<f64, $np>, x: &Unknowns, k: usize) -> Option<Unknowns> {
                 restart(&correspondences_of::<$rows>(p.as_slice()), x, k)
             }
@@ -427,6 +475,13 @@ macro_rules! grps_problem {
                         }
                     }
                     _ => f64::INFINITY,
+                }
+            }
+            /// The same pose ([`GrpsPose::same`]): `q` and `-q` are one rotation.
+            fn same_solution(&self, a: &Unknowns, b: &Unknowns) -> bool {
+                match (GrpsPose::from_unknowns(a), GrpsPose::from_unknowns(b)) {
+                    (Some(a), Some(b)) => a.same(&b),
+                    _ => false,
                 }
             }
         }
@@ -469,10 +524,23 @@ pub enum GrpsSolversError {
 impl GrpsSolvers {
     /// Both solvers with the shipped weights, validating for noise of `noise_px` pixels.
     pub fn new(noise_px: f64) -> Result<Self, SolverError> {
+        Self::with_weights(GRPS_WEIGHTS, noise_px)
+    }
+
+    /// Both solvers with the network of `weights` (a `.folded` file of `simhc train grps`) for
+    /// the learned start and the other starts, validating for noise of `noise_px` pixels.
+    pub fn with_weights(weights: &[u8], noise_px: f64) -> Result<Self, SolverError> {
+        let network = GrpsNetwork::from_bytes(weights)?;
         Ok(Self {
-            seven: Solver::with_weights(Grps7Problem::new(), GRPS_WEIGHTS, noise_px)?,
-            eight: Solver::with_weights(Grps8Problem::new(), GRPS_WEIGHTS, noise_px)?,
+            seven: Solver::with_weights(Grps7Problem::with_network(Some(network.clone())), weights, noise_px)?,
+            eight: Solver::with_weights(Grps8Problem::with_network(Some(network)), weights, noise_px)?,
         })
+    }
+
+    /// Both solvers certifying their solutions as `certification` says
+    /// ([`simhc::solver::Certification`]).
+    pub fn certifying(self, certification: simhc::solver::Certification) -> Self {
+        Self { seven: self.seven.certifying(certification), eight: self.eight.certifying(certification) }
     }
 
     /// Solves 7 or 8 correspondences with the instance of that count. More: all are checked
@@ -497,7 +565,7 @@ impl GrpsSolvers {
             return Err(input(NonFiniteParameter::locate(&layout, index).into()));
         }
         validate(corrs).map_err(|e| input(degenerate(e).into()))?;
-        // The same 8 as `GrpsSolver` builds its system from: the first 8 of `spread_first`.
+        // The system is built from the first 8 of `spread_first`: spread over the camera pairs.
         let spread = spread_first(corrs);
         let eight = params_of::<96>(&spread[..8]).expect("more than 8 correspondences");
         let solution = self.eight.solve(&eight)?;

@@ -2,12 +2,13 @@
 pub mod declared;
 pub mod features;
 pub mod geometry;
-pub mod ransac;
+pub mod learned;
+pub mod pose;
 pub mod refine;
 pub mod scene;
 pub mod simulator;
-pub mod solver;
 mod system;
+pub mod validation;
 
 pub use system::grps::*;
 
@@ -55,7 +56,7 @@ pub fn rows_of<const N: usize>(corrs: &[GrpsCorrespondence]) -> Option<[Row; N]>
 }
 
 /// The 8 of `corrs` that the solvers' systems are built from when there are more
-/// ([`solver::GrpsSolver`], [`declared::GrpsSolvers`]), spread over the camera pairs (rows
+/// ([`declared::GrpsSolvers`]), spread over the camera pairs (rows
 /// with the same ray origins `v` and `vp`): the first row of every pair in order of appearance,
 /// then the second of every pair, and so on; the first 8 of that order, ascending. Why: rows of
 /// one camera pair fix only that pair's relative pose up to scale, so 8 rows from few pairs

@@ -6,7 +6,7 @@
 //! over all twelve numbers of every row instead.
 
 use super::geometry::simulate_ray;
-use super::solver::GrpsPose;
+use super::pose::GrpsPose;
 use super::{correspondence_of_row, Grps7, Grps8, ROW_LEN};
 use nalgebra::SVector;
 use simhc::{OnlineSimulator, SimulatorError};

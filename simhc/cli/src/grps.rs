@@ -8,13 +8,20 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use simhc::all_roots::AllRootsOptions;
-use simhc::ransac::{ransac, RansacOptions};
-use simhc::regressor::FoldedNetwork;
-use simhc_problems::grps::ransac::GrpsEstimator;
+use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartError, StartProvider};
+use simhc::ransac::RansacOptions;
+use simhc::solver::hypotheses::{other_provider, provider};
+use simhc::solver::restarts::restart_provider;
+use simhc::solver::{DeclaredProblem, FirstRowsError, LearnedHypotheses, SolveError, Solver};
+use simhc_problems::grps::declared::{
+    grps_pipeline_options, params_of, Grps7Problem, GrpsSolvers, GrpsSolversError, RANSAC_NOISE_PX, RESTARTS, SAMPLE_ATTEMPTS,
+};
+use simhc_problems::grps::learned::GRPS_WEIGHTS;
+use simhc_problems::grps::pose::GrpsPose;
 use simhc_problems::grps::refine::{lm_polynomial, refine_pose, LmOptions};
 use simhc_problems::grps::scene::{GrpsCorrespondence, GrpsScene, GrpsSceneConfig};
-use simhc_problems::grps::solver::{GrpsPose, GrpsSolveError, GrpsSolveReport, GrpsSolver, GrpsSolverOptions, Method, SimulatorKind};
-use simhc_problems::grps::{self, Grps7, Grps8};
+use simhc_problems::grps::validation::Validation;
+use simhc_problems::grps::{self, row_numbers, Grps7, Grps8};
 use simhc_problems::metrics::{
     perturb_scale, perturb_translation, random_rotation_perturbation, rotation_error_deg, scale_error_pct, translation_error_pct,
 };
@@ -59,18 +66,13 @@ pub struct GrpsArgs {
     /// bench grps: RANSAC runs per outlier ratio.
     #[arg(long, default_value_t = 300)]
     pub ransac_trials: usize,
-    /// bench grps: correspondences per RANSAC sample (7: minimal, 8: overdetermined).
+    /// bench grps: correspondences per RANSAC sample (7: minimal, up to 4 validated roots a
+    /// sample; 8: overdetermined).
     #[arg(long, default_value_t = 7)]
     pub ransac_sample: usize,
     /// bench grps: RANSAC with local optimization (refine every new best model on its inliers).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub ransac_lo: bool,
-    /// bench grps: hypotheses per RANSAC sample (distinct plausible end points).
-    #[arg(long, default_value_t = 4)]
-    pub ransac_hypotheses: usize,
-    /// bench grps: solver attempts per RANSAC sample.
-    #[arg(long, default_value_t = 8)]
-    pub ransac_attempts: usize,
     /// bench grps: the regressor's weights, a `.folded` file written by `simhc train grps`
     /// (default: the shipped ones), to compare a training run with the shipped weights on the
     /// same trials.
@@ -79,14 +81,14 @@ pub struct GrpsArgs {
 }
 
 impl GrpsArgs {
-    /// A solver with `options` and the regressor of `--weights` (the shipped one without).
-    fn solver(&self, options: GrpsSolverOptions) -> Result<GrpsSolver, String> {
+    /// The GRPS solvers with the regressor of `--weights` (the shipped one without),
+    /// validating for noise of `noise_px` pixels.
+    fn solvers(&self, noise_px: f64) -> Result<GrpsSolvers, String> {
         match &self.weights {
-            None => solver(options),
+            None => GrpsSolvers::new(noise_px).map_err(|e| format!("loading the shipped regressor: {e}")),
             Some(path) => {
                 let bytes = std::fs::read(path).map_err(|e| format!("--weights {}: {e}", path.display()))?;
-                let network = FoldedNetwork::from_bytes(&bytes).map_err(|e| format!("--weights {}: {e}", path.display()))?;
-                Ok(GrpsSolver::with_network(network).with_options(options))
+                GrpsSolvers::with_weights(&bytes, noise_px).map_err(|e| format!("--weights {}: {e}", path.display()))
             }
         }
     }
@@ -135,11 +137,14 @@ fn ok(o: &Outcome) -> bool {
         && o.scale_pct.is_some_and(|e| e < 5.0)
 }
 
-/// The pose a solve returned: validated, or flagged (`NotValidated` carries the best end point).
-fn returned(result: &Result<GrpsSolveReport, GrpsSolveError>) -> Option<(GrpsSolveReport, bool)> {
+/// What one run of a GRPS library solver's pipeline returns.
+type PipelineOutcome = Result<Solved<Validation, 8>, PipelineError<FirstRowsError, Validation, 8>>;
+
+/// The end point a run returned: validated, or flagged (`NotValidated` carries the best one).
+fn returned(result: &PipelineOutcome) -> Option<(&Solved<Validation, 8>, bool)> {
     match result {
-        Ok(r) => Some((*r, false)),
-        Err(GrpsSolveError::NotValidated(b)) => Some((**b, true)),
+        Ok(s) => Some((s, false)),
+        Err(PipelineError::NotValidated(s)) => Some((s, true)),
         Err(_) => None,
     }
 }
@@ -157,20 +162,66 @@ impl SolverRow {
         Self { record: MethodRecord::new(name), flagged: 0, fallbacks: 0, attempts: Vec::new() }
     }
 
-    fn push(&mut self, result: Result<GrpsSolveReport, GrpsSolveError>, scene: &GrpsScene, micros: f64) {
-        match returned(&result) {
-            Some((r, flagged)) => {
+    fn push(&mut self, result: &PipelineOutcome, scene: &GrpsScene, micros: f64) {
+        match returned(result).and_then(|(s, flagged)| Some((s, flagged, GrpsPose::from_unknowns(&s.x)?))) {
+            Some((s, flagged, pose)) => {
                 self.flagged += usize::from(flagged);
-                self.fallbacks += usize::from(r.method == Method::AllRoots);
-                self.attempts.push(r.attempts as f64);
-                let split = [us(r.times.regressor), us(r.times.simulator), us(r.times.tracking)];
-                let o = outcome(&r.pose, scene, micros, Some(split));
+                self.fallbacks += usize::from(matches!(s.origin, Origin::Fallback { .. }));
+                self.attempts.push(s.attempts as f64);
+                let split = [us(s.times.start), us(s.times.simulator), us(s.times.target + s.times.tracking + s.times.fallback)];
+                let o = outcome(&pose, scene, micros, Some(split));
                 self.record.outcomes.push(Outcome { flagged, ..o });
             }
             None => self.record.outcomes.push(failed(micros)),
         }
     }
 }
+
+/// A start given by the caller (a perturbed ground truth), already in the problem's canonical
+/// frame: the solver's pipeline hands its providers canonical data.
+struct GivenStart(SVector<f64, 8>);
+
+impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for GivenStart {
+    fn name(&self) -> &'static str {
+        "given"
+    }
+    fn start(&self, _: &SVector<f64, NP>) -> Result<SVector<f64, 8>, StartError> {
+        Ok(self.0)
+    }
+}
+
+/// The provider slot of the caller's start in a library solver's pipeline.
+const GIVEN: usize = 2;
+
+/// The start providers of the GRPS library solver with `hypotheses` learned hypotheses, in the
+/// order the hand-wired solver tried them: the learned start's ranked hypotheses (plain), then
+/// the three predicted starts (the predicted rotation with least-squares `(t, s)`, the swapped
+/// prediction and its rotation with least-squares `(t, s)`).
+fn start_providers(hypotheses: usize) -> Vec<usize> {
+    let mut starts: Vec<usize> = (0..hypotheses.max(1)).map(|rank| provider(rank, false)).collect();
+    starts.extend((0..3).map(|j| other_provider(hypotheses, j)));
+    starts
+}
+
+/// The retries of the stability rows as a schedule: `methods` on every start
+/// ([`start_providers`]), all of them on one start before the next (`by_method` false) or each
+/// method on every start before the next method; then Gauss-Newton from every restart; at most
+/// 80 attempts; no fallback.
+fn retries(hypotheses: usize, methods: &[Method], by_method: bool) -> Vec<Attempt> {
+    let starts = start_providers(hypotheses);
+    let mut out: Vec<Attempt> = if by_method {
+        methods.iter().flat_map(|&method| starts.iter().map(move |&provider| Attempt { provider, method })).collect()
+    } else {
+        starts.iter().flat_map(|&provider| methods.iter().map(move |&method| Attempt { provider, method })).collect()
+    };
+    out.extend((0..RESTARTS).map(|k| Attempt { provider: restart_provider(hypotheses, 3, k), method: Method::GaussNewton }));
+    out.truncate(80);
+    out
+}
+
+/// The geometric simulator (the tracked instance's own) and the generic minimum-norm one.
+const GEOMETRIC: Method = Method::SimulatorHc;
+const GENERIC: Method = Method::OtherSimulatorHc(0);
 
 /// Notes of a stability row beyond [`Summary`].
 #[derive(Debug, Clone, Serialize)]
@@ -304,8 +355,34 @@ pub struct BenchReport {
     pub figures: Vec<PathBuf>,
 }
 
-fn solver(options: GrpsSolverOptions) -> Result<GrpsSolver, String> {
-    Ok(GrpsSolver::new().map_err(|e| format!("loading the shipped regressor: {e}"))?.with_options(options))
+/// One run of `solver`'s pipeline on `corrs` (exactly the instance's count) with `schedule`,
+/// with or without the fallback, and with `given` (a start in the user's frame, mapped into the
+/// problem's canonical frame) in the caller's slot; `None` for another count.
+fn run<S, const NF: usize, const NP: usize, const NC: usize>(
+    solver: &Solver<S, 8, NF, NP, NC, NP>,
+    corrs: &[GrpsCorrespondence],
+    schedule: &[Attempt],
+    fallback: bool,
+    given: Option<&SVector<f64, 8>>,
+) -> Option<PipelineOutcome>
+where
+    S: DeclaredProblem<8, NF, NP, NC, NP, Validator = simhc_problems::grps::validation::GrpsValidator>,
+{
+    let p = params_of::<NP>(corrs)?;
+    let start = given.map(|x| match solver.problem().canonicalize(&p) {
+        Some((_, frame)) => GivenStart(frame.to_canonical(x)),
+        None => GivenStart(*x),
+    });
+    let extra = start.as_ref().map(|s| s as &dyn StartProvider<SVector<f64, NP>, 8>);
+    Some(solver.run_pipeline(&p, schedule, fallback, extra))
+}
+
+/// A run's end point as a pose (validated or flagged), scored against the scene.
+fn pose_outcome(result: Option<&PipelineOutcome>, scene: &GrpsScene, micros: f64) -> Outcome {
+    match result.and_then(returned).and_then(|(s, _)| GrpsPose::from_unknowns(&s.x)) {
+        Some(pose) => outcome(&pose, scene, micros, None),
+        None => failed(micros),
+    }
 }
 
 fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
@@ -328,8 +405,8 @@ pub fn bench(trials: &[GrpsScene], seed: u64, source: String, args: &GrpsArgs, p
         ransac: Vec::new(),
         ransac_sample: args.ransac_sample,
         ransac_lo: args.ransac_lo,
-        ransac_hypotheses: args.ransac_hypotheses,
-        ransac_attempts: args.ransac_attempts,
+        ransac_hypotheses: <Grps7Problem as DeclaredProblem<8, 8, 84, { Grps7::NC }, 84>>::SAMPLE_CANDIDATES,
+        ransac_attempts: SAMPLE_ATTEMPTS,
         figures: Vec::new(),
     };
     if args.runs(Experiment::Stability) {
@@ -348,18 +425,20 @@ pub fn bench(trials: &[GrpsScene], seed: u64, source: String, args: &GrpsArgs, p
 }
 
 fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>) -> Result<StabilityReport, String> {
-    use SimulatorKind::{Generic, Geometric};
-    let predictor = args.solver(GrpsSolverOptions::default())?;
-    let single_geo = args.solver(GrpsSolverOptions::single_path(Geometric))?;
-    let single_gen = args.solver(GrpsSolverOptions::single_path(Generic))?;
-    let no_fallback = |o: GrpsSolverOptions| GrpsSolverOptions { all_roots_fallback: false, ..o };
-    let retry_geo = args.solver(no_fallback(GrpsSolverOptions::with_simulator(Geometric)))?;
-    let retry_gen = args.solver(no_fallback(GrpsSolverOptions::with_simulator(Generic)))?;
-    let retry_shipped_order = args.solver(no_fallback(GrpsSolverOptions::default()))?;
-    let shipped = args.solver(GrpsSolverOptions::default())?;
+    let solvers = args.solvers(0.0)?;
+    let (seven, eight) = (&solvers.seven, &solvers.eight);
+    let hypotheses = eight.learned_start().hypotheses();
+    let learned = provider(0, false);
+    // Every row is a schedule over the one solver (`GrpsSolvers`): the retries' rows without
+    // the fallback, the shipped rows its own schedule with it.
+    let one_geometric = [Attempt { provider: learned, method: GEOMETRIC }];
+    let one_generic = [Attempt { provider: learned, method: GENERIC }];
+    let retry_geometric = retries(hypotheses, &[GEOMETRIC, Method::GaussNewton, GENERIC], false);
+    let retry_generic = retries(hypotheses, &[GENERIC, Method::GaussNewton, GEOMETRIC], false);
+    let retry_gn_first = retries(hypotheses, &[Method::GaussNewton, GENERIC, GEOMETRIC], true);
     let mut pred = MethodRecord::new("Pred Initial");
     let mut pred_lm = MethodRecord::new("Pred + LM (8 pts)");
-    let mut pred_gn = MethodRecord::new("Pred + Gauss-Newton (8 pts)");
+    let mut pred_gn = MethodRecord::new("Pred + pipeline Gauss-Newton (8 pts)");
     let mut rows = [
         SolverRow::new("Sim HC 7 pts, geometric, 1 path"),
         SolverRow::new("Sim HC 7 pts, generic, 1 path"),
@@ -381,43 +460,52 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
         let c8: &[GrpsCorrespondence] = &scene.correspondences[..8.min(scene.correspondences.len())];
         let c7 = &c8[..7.min(c8.len())];
 
-        let (p, micros) = timed(|| predictor.predict(c8));
-        pred.outcomes.push(match &p {
-            Ok(p) => outcome(p, scene, micros, None),
-            Err(_) => failed(micros),
-        });
+        // Pred Initial: the learned start as it is (its first-ranked hypothesis).
+        let start_only = [Attempt { provider: learned, method: Method::Start }];
+        let (p, micros) = timed(|| run(eight, c8, &start_only, false, None));
+        pred.outcomes.push(pose_outcome(p.as_ref(), scene, micros));
         let lm = |x0: SVector<f64, 8>| -> Option<GrpsPose> {
             let rows = grps::rows_of::<8>(c8)?;
             let r = lm_polynomial::<Grps8, 9, 96>(&x0, &Grps8::params(&rows), &LmOptions::default());
             GrpsPose::from_unknowns(&r.x)
         };
-        let (r, micros) = timed(|| predictor.predict(c8).ok().and_then(|p| lm(p.unknowns())));
-        pred_lm.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
         let (r, micros) = timed(|| {
-            let p = predictor.predict(c8).ok()?;
-            let rows = grps::rows_of::<8>(c8)?;
-            let n = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&p.unknowns(), &Grps8::params(&rows), &predictor.options.newton)
-                .ok()?;
-            GrpsPose::from_unknowns(&n.x)
+            let p = run(eight, c8, &start_only, false, None)?;
+            lm(returned(&p)?.0.x)
         });
-        pred_gn.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
+        pred_lm.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
+        // The pipeline's Gauss-Newton: an end point that does not converge is no end point (the
+        // hand-wired row scored it all the same, as a wrong pose).
+        let gn_only = [Attempt { provider: learned, method: Method::GaussNewton }];
+        let (r, micros) = timed(|| run(eight, c8, &gn_only, false, None));
+        pred_gn.outcomes.push(pose_outcome(r.as_ref(), scene, micros));
 
-        let solvers: [(&GrpsSolver, &[GrpsCorrespondence]); 11] = [
-            (&single_geo, c7),
-            (&single_gen, c7),
-            (&single_geo, c8),
-            (&single_gen, c8),
-            (&retry_geo, c8),
-            (&retry_gen, c8),
-            (&retry_shipped_order, c8),
-            (&retry_geo, c7),
-            (&retry_shipped_order, c7),
-            (&shipped, c7),
-            (&shipped, c8),
+        let runs: [(bool, &[Attempt], bool); 11] = [
+            (false, &one_geometric, false),
+            (false, &one_generic, false),
+            (true, &one_geometric, false),
+            (true, &one_generic, false),
+            (true, &retry_geometric, false),
+            (true, &retry_generic, false),
+            (true, &retry_gn_first, false),
+            (false, &retry_geometric, false),
+            (false, &retry_gn_first, false),
+            (false, seven.schedule(), true),
+            (true, eight.schedule(), true),
         ];
-        for (row, (s, c)) in rows.iter_mut().zip(solvers) {
-            let (r, micros) = timed(|| s.solve_report(c));
-            row.push(r, scene, micros);
+        // The rows of one solver run one after the other (those of 7 points, then those of 8),
+        // so that each row finds its solver's network in the cache, as the rows of one
+        // hand-wired solver did; the table keeps the order above.
+        let mut order: Vec<usize> = (0..runs.len()).collect();
+        order.sort_by_key(|&k| runs[k].0);
+        for k in order {
+            let (row, (on_eight, schedule, fallback)) = (&mut rows[k], runs[k]);
+            let (r, micros) =
+                timed(|| if on_eight { run(eight, c8, schedule, fallback, None) } else { run(seven, c7, schedule, fallback, None) });
+            match r {
+                Some(r) => row.push(&r, scene, micros),
+                None => row.record.outcomes.push(failed(micros)),
+            }
         }
 
         if i < all_roots_trials {
@@ -456,7 +544,7 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
     let shown = [
         "Pred Initial",
         "Pred + LM (8 pts)",
-        "Pred + Gauss-Newton (8 pts)",
+        "Pred + pipeline Gauss-Newton (8 pts)",
         "Sim HC 7 pts, geometric, 1 path",
         "Sim HC 8 pts, geometric, 1 path",
         "Shipped 8 pts (retries+fallback)",
@@ -489,15 +577,15 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
 pub const START_ANGLES: [f64; 5] = [5.0, 10.0, 20.0, 30.0, 45.0];
 
 fn starts(trials: &[GrpsScene], seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<StartCell>, String> {
-    use SimulatorKind::{Generic, Geometric};
-    let methods: [(&str, Option<GrpsSolver>, usize); 5] = [
-        ("HC 8 pts, geometric", Some(args.solver(GrpsSolverOptions::single_path(Geometric))?), 8),
-        ("HC 8 pts, generic", Some(args.solver(GrpsSolverOptions::single_path(Generic))?), 8),
-        ("Gauss-Newton 8 pts", None, 8),
-        ("HC 7 pts, geometric", Some(args.solver(GrpsSolverOptions::single_path(Geometric))?), 7),
-        ("HC 7 pts, generic", Some(args.solver(GrpsSolverOptions::single_path(Generic))?), 7),
+    let solvers = args.solvers(0.0)?;
+    // One attempt from the given start (the caller's slot), no retries, no fallback.
+    let methods: [(&str, Method, usize); 5] = [
+        ("HC 8 pts, geometric", GEOMETRIC, 8),
+        ("HC 8 pts, generic", GENERIC, 8),
+        ("Gauss-Newton 8 pts", Method::GaussNewton, 8),
+        ("HC 7 pts, geometric", GEOMETRIC, 7),
+        ("HC 7 pts, generic", GENERIC, 7),
     ];
-    let newton = GrpsSolverOptions::default().newton;
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(2));
     let mut cells = Vec::new();
     let bar = crate::app::progress_bar((START_ANGLES.len() * trials.len()) as u64, progress);
@@ -509,23 +597,20 @@ fn starts(trials: &[GrpsScene], seed: u64, args: &GrpsArgs, progress: bool) -> R
                 rotation: random_rotation_perturbation(&scene.rotation, angle, &mut rng),
                 translation: perturb_translation(&scene.translation, 0.1, &mut rng),
                 scale: perturb_scale(scene.scale, 0.1, &mut rng),
-            };
-            for (k, (_, s, n)) in methods.iter().enumerate() {
-                let c = &scene.correspondences[..*n];
-                let (pose, micros) = match s {
-                    Some(s) => {
-                        let (r, micros) = timed(|| s.solve_from(c, &start));
-                        (returned(&r).map(|(r, _)| r.pose), micros)
+            }
+            .unknowns();
+            for (k, &(_, method, n)) in methods.iter().enumerate() {
+                let c = &scene.correspondences[..n];
+                let schedule = [Attempt { provider: GIVEN, method }];
+                let (r, micros) = timed(|| {
+                    if n == 8 {
+                        run(&solvers.eight, c, &schedule, false, Some(&start))
+                    } else {
+                        run(&solvers.seven, c, &schedule, false, Some(&start))
                     }
-                    None => timed(|| {
-                        let rows = grps::rows_of::<8>(c)?;
-                        let r =
-                            simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&start.unknowns(), &Grps8::params(&rows), &newton).ok()?;
-                        GrpsPose::from_unknowns(&r.x)
-                    }),
-                };
+                });
                 times[k].push(micros);
-                if pose.is_some_and(|p| ok(&outcome(&p, scene, 0.0, None))) {
+                if ok(&pose_outcome(r.as_ref(), scene, 0.0)) {
                     oks[k] += 1;
                 }
             }
@@ -555,7 +640,8 @@ fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>)
     for cameras in NOISE_CAMERAS {
         for noise_px in NOISE_LEVELS {
             let config = GrpsSceneConfig { cameras_per_view: cameras, noise_px, ..GrpsSceneConfig::default() };
-            let s = args.solver(GrpsSolverOptions::for_noise(noise_px, config.focal_px))?;
+            let s = args.solvers(noise_px)?;
+            let newton = grps_pipeline_options().newton;
             let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(100 + cameras as u64));
             let mut record = MethodRecord::new("noise");
             let mut reference = MethodRecord::new("reference");
@@ -564,15 +650,19 @@ fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>)
                 let scene = config.sample(&mut rng).map_err(|e| e.to_string())?;
                 let truth = GrpsPose { rotation: scene.rotation, translation: scene.translation, scale: scene.scale };
                 let from_truth = grps::rows_of::<8>(&scene.correspondences).and_then(|rows| {
-                    let r =
-                        simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&truth.unknowns(), &Grps8::params(&rows), &s.options.newton)
-                            .ok()?;
+                    let r = simhc::tracker::solve_newton::<Grps8, f64, 8, 9, 96>(&truth.unknowns(), &Grps8::params(&rows), &newton).ok()?;
                     GrpsPose::from_unknowns(&r.x)
                 });
                 reference.outcomes.push(from_truth.map_or(failed(0.0), |p| outcome(&p, &scene, 0.0, None)));
-                let (r, micros) = timed(|| s.solve_report(&scene.correspondences));
-                match returned(&r) {
-                    Some((r, _)) => record.outcomes.push(outcome(&r.pose, &scene, micros, None)),
+                let (r, micros) = timed(|| s.solve(&scene.correspondences));
+                // A flagged end point is scored too, as a validated one.
+                let x = match &r {
+                    Ok(solution) => Some(solution.x),
+                    Err(GrpsSolversError::Solve(SolveError::NotValidated { best, .. })) => Some(*best),
+                    Err(_) => None,
+                };
+                match x.and_then(|x| GrpsPose::from_unknowns(&x)) {
+                    Some(pose) => record.outcomes.push(outcome(&pose, &scene, micros, None)),
                     None => {
                         if let Err(e) = &r {
                             *errors.entry(e.to_string()).or_default() += 1;
@@ -617,7 +707,7 @@ fn noise(seed: u64, args: &GrpsArgs, progress: bool, figures: &mut Vec<PathBuf>)
         panel("translation", "%", |r| r.translation_median_pct),
         panel("scale", "%", |r| r.scale_median_pct),
     ];
-    figures.extend(write_figure(&args.figures.join("grps_noise"), "GRPS noise resilience (Simulator HC, 8 pts)", &panels, false)?);
+    figures.extend(write_figure(&args.figures.join("grps_noise"), "GRPS noise resilience (the shipped solver, 8 pts)", &panels, false)?);
     Ok(rows)
 }
 
@@ -653,9 +743,8 @@ pub fn ransac_scene(ratio: f64, rng: &mut ChaCha8Rng) -> Result<(GrpsScene, Vec<
 }
 
 fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<RansacRow>, String> {
-    let minimal = args.solver(GrpsSolverOptions { max_attempts: args.ransac_attempts, ..GrpsSolverOptions::for_ransac() })?;
-    let mut estimator = GrpsEstimator::new(minimal, args.ransac_sample);
-    estimator.hypotheses = args.ransac_hypotheses;
+    // A sample's pose is validated on the sample as the estimator of `simhc.estimate_grps` does.
+    let solvers = args.solvers(RANSAC_NOISE_PX)?;
     let mut rows = Vec::new();
     let bar = crate::app::progress_bar((OUTLIER_RATIOS.len() * args.ransac_trials) as u64, progress);
     for ratio in OUTLIER_RATIOS {
@@ -676,21 +765,27 @@ fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<Ransac
                 local_optimization: args.ransac_lo,
                 ..RansacOptions::default()
             };
+            let data: Vec<f64> = row_numbers(&scene.correspondences).collect();
             let t = Instant::now();
-            let result = ransac(&estimator, &scene.correspondences, &options);
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-            if let Some(r) = result {
-                iters.push(r.iterations as f64);
-                let o = outcome(&r.model, &scene, 0.0, None);
-                if o.rotation_deg.is_some_and(|e| e < 2.0) {
-                    succ += 1;
-                    er.push(o.rotation_deg.unwrap_or(f64::NAN));
-                    et.push(o.translation_pct.unwrap_or(f64::NAN));
-                    es.push(o.scale_pct.unwrap_or(f64::NAN));
-                }
-                succ_all += usize::from(ok(&o));
+            let result = if args.ransac_sample == 8 {
+                solvers.eight.estimate(&data, &[], &options)
             } else {
-                iters.push(options.max_iterations as f64);
+                solvers.seven.estimate(&data, &[], &options)
+            };
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            match result.ok().and_then(|(x, info)| Some((GrpsPose::from_unknowns(&x)?, info))) {
+                Some((pose, info)) => {
+                    iters.push(info.iterations as f64);
+                    let o = outcome(&pose, &scene, 0.0, None);
+                    if o.rotation_deg.is_some_and(|e| e < 2.0) {
+                        succ += 1;
+                        er.push(o.rotation_deg.unwrap_or(f64::NAN));
+                        et.push(o.translation_pct.unwrap_or(f64::NAN));
+                        es.push(o.scale_pct.unwrap_or(f64::NAN));
+                    }
+                    succ_all += usize::from(ok(&o));
+                }
+                None => iters.push(options.max_iterations as f64),
             }
             bar.inc(1);
         }
@@ -801,7 +896,7 @@ pub fn text(report: &BenchReport) -> String {
     }
     if !report.ransac.is_empty() {
         out.push_str(&format!(
-            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, <= {} attempts and {} hypotheses per sample, <= 200 iterations, 99 % confidence, threshold 0.01, LM on the inliers{}:\n",
+            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, the first {} attempts of the solver's schedule and <= {} validated roots per sample, <= 200 iterations, 99 % confidence, threshold 0.01 on the angular residual{}:\n",
             report.ransac_sample,
             report.ransac_attempts,
             report.ransac_hypotheses,
@@ -859,25 +954,31 @@ pub fn text(report: &BenchReport) -> String {
 /// and so may other poses.
 pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
     let corrs: Vec<GrpsCorrespondence> = simhc_problems::input::parse_correspondences(text).map_err(|e| e.to_string())?;
-    let s = solver(GrpsSolverOptions::default())?;
-    let (report, validated) = match s.solve_report(&corrs) {
-        Ok(r) => (r, true),
-        Err(GrpsSolveError::NotValidated(b)) => (*b, false),
+    let solvers = GrpsSolvers::with_weights(GRPS_WEIGHTS, 0.0)
+        .map_err(|e| format!("loading the shipped regressor: {e}"))?
+        .certifying(simhc::solver::Certification::Report);
+    let (x, check, attempts, validated, certificate) = match solvers.solve(&corrs) {
+        Ok(s) => (s.x, s.check, s.attempts, true, crate::certificates::json(&s.certified)),
+        Err(GrpsSolversError::Solve(SolveError::NotValidated { best, check, attempts })) => {
+            (best, check, attempts, false, serde_json::Value::Null)
+        }
         Err(e) => return Err(e.to_string()),
     };
-    let r = report.pose.rotation;
-    let t = report.pose.translation;
+    let pose = GrpsPose::from_unknowns(&x).ok_or_else(|| format!("the end point {x:?} is not a pose"))?;
+    let r = pose.rotation;
+    let t = pose.translation;
     Ok(serde_json::json!({
-        "rotation": [[r[(0, 0)], r[(0, 1)], r[(0, 2)]], [r[(1, 0)], r[(1, 1)], r[(1, 2)]], [r[(2, 0)], r[(2, 1)], r[(2, 2)]]],
+    "rotation": [[r[(0, 0)], r[(0, 1)], r[(0, 2)]], [r[(1, 0)], r[(1, 1)], r[(1, 2)]], [r[(2, 0)], r[(2, 1)], r[(2, 2)]]],
         "translation": [t.x, t.y, t.z],
-        "scale": report.pose.scale,
+        "scale": pose.scale,
         "convention": "alpha_i f_i + v_i = R (alpha'_i fp_i + s vp_i) + t",
         "validated": validated,
         // 7 correspondences are minimal: every real root fits them exactly, so `validated`
-        // cannot mean "the" pose (`GrpsSolver::solve`).
+        // cannot mean "the" pose.
         "minimal": corrs.len() == 7,
-        "max_angular_residual": report.validation.max_angle,
-        "behind_camera": report.validation.behind,
-        "attempts": report.attempts,
+        "max_angular_residual": check.max_angle,
+        "behind_camera": check.behind,
+        "attempts": attempts,
+        "certificate": certificate,
     }))
 }

@@ -35,9 +35,11 @@ use burn::prelude::*;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::regressor::HypothesisBlocks;
+use simhc::solver::{DeclaredProblem, LearnedHypotheses};
+use simhc_problems::grps::declared::{params_of, GrpsSolvers};
 use simhc_problems::grps::features::{swap_pose, swap_views, GrpsFrame, GRPS_OUTPUTS, GRPS_ROW_WIDTH};
+use simhc_problems::grps::pose::GrpsPose;
 use simhc_problems::grps::scene::{GrpsScene, GrpsSceneConfig};
-use simhc_problems::grps::solver::GrpsSolver;
 use simhc_problems::metrics::{rotation_error_deg, scale_error_pct, translation_error_pct};
 use std::time::Instant;
 
@@ -263,21 +265,32 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// Errors of the folded `solver`'s prediction (its first-ranked hypothesis, and the best of
-/// all) on validation scenes `first_seed + i`.
-pub fn evaluate_solver(solver: &GrpsSolver, count: usize, first_seed: u64) -> PoseStats {
+/// The learned start's hypotheses of `corrs` (8 correspondences) through the library solver:
+/// ranked as a solve ranks them, in the user's frame.
+fn predictions(solvers: &GrpsSolvers, corrs: &[simhc_problems::grps::scene::GrpsCorrespondence]) -> Option<Vec<GrpsPose>> {
+    let solver = &solvers.eight;
+    let p = params_of::<96>(corrs)?;
+    let (canonical, frame) = solver.problem().canonicalize(&p)?;
+    let ranked = solver.learned_start().rank(&canonical).ok()?;
+    let poses: Vec<GrpsPose> = ranked.x[..ranked.count].iter().filter_map(|x| GrpsPose::from_unknowns(&frame.to_user(x))).collect();
+    (!poses.is_empty()).then_some(poses)
+}
+
+/// Errors of the learned start of `solvers` (its first-ranked hypothesis, and the best of all)
+/// on validation scenes `first_seed + i`.
+pub fn evaluate_solver(solvers: &GrpsSolvers, count: usize, first_seed: u64) -> PoseStats {
     let (mut er, mut et, mut es, mut best) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for i in 0..count {
         let scene = validation_scene(first_seed, i);
-        match solver.predict_all(&scene.correspondences) {
-            Ok(all) => {
+        match predictions(solvers, &scene.correspondences) {
+            Some(all) => {
                 let p = all[0];
                 er.push(rotation_error_deg(&p.rotation, &scene.rotation));
                 et.push(translation_error_pct(&p.translation, &scene.translation));
                 es.push(scale_error_pct(p.scale, scene.scale));
                 best.push(all.iter().map(|p| rotation_error_deg(&p.rotation, &scene.rotation)).fold(180.0, f64::min));
             }
-            Err(_) => {
+            None => {
                 er.push(180.0);
                 et.push(f64::INFINITY);
                 es.push(f64::INFINITY);
@@ -288,7 +301,7 @@ pub fn evaluate_solver(solver: &GrpsSolver, count: usize, first_seed: u64) -> Po
     let pct = |v: &[f64], th: f64| 100.0 * v.iter().filter(|&&x| x < th).count() as f64 / v.len().max(1) as f64;
     PoseStats {
         count,
-        hypotheses: solver.hypotheses(),
+        hypotheses: solvers.eight.learned_start().hypotheses(),
         best_under_10_pct: pct(&best, 10.0),
         best_rotation_median_deg: median(best),
         rotation_under_10_pct: pct(&er, 10.0),
@@ -325,7 +338,6 @@ pub fn train_grps(config: &GrpsTrainConfig) -> Result<GrpsTrained, LearnedStartE
 /// `simhc train grps`.
 pub fn train_and_write(out_dir: &std::path::Path, config: &GrpsTrainConfig) -> Result<(), Box<dyn std::error::Error>> {
     use crate::export_folded;
-    use simhc::regressor::FoldedNetwork;
     println!("seed {}", config.train.seed);
     println!(
         "training scenes {} (cameras per view {:?}, {:.0}% noisy up to {} px, {:.0}% with 7 points, views swapped half the time), epochs {}, batch {}, lr {:e} -> {:e}",
@@ -361,8 +373,8 @@ pub fn train_and_write(out_dir: &std::path::Path, config: &GrpsTrainConfig) -> R
     std::fs::write(&folded_path, &folded_bytes)?;
     println!("wrote {} and {}", bpk.display(), folded_path.display());
 
-    let solver = GrpsSolver::with_network(FoldedNetwork::from_bytes(&folded_bytes)?);
-    let stats = evaluate_solver(&solver, config.valid_samples, config.valid_first_seed);
+    let solvers = GrpsSolvers::with_weights(&folded_bytes, 0.0)?;
+    let stats = evaluate_solver(&solvers, config.valid_samples, config.valid_first_seed);
     println!("validation (folded, batch 1; 3 cameras, noise-free, 8 points): {stats}");
     Ok(())
 }

@@ -227,7 +227,7 @@ where
             bar.inc(1);
             // The running loss from the first steps on, not only after a whole epoch (an epoch
             // of 100,000 scenes takes minutes on two cores).
-            if step % 50 == 0 {
+            if step.is_multiple_of(50) {
                 let done = step - epoch * steps_per_epoch;
                 bar.set_message(format!("epoch {}/{} loss {:.5}", epoch + 1, config.epochs, loss_sum / done as f64));
             }

@@ -186,6 +186,33 @@ where
         Ok(found)
     }
 
+    /// [`Pipeline::plausible_end_points`] in the canonical frame of `canon` (as
+    /// [`Pipeline::solve_canonical`]): each end point is mapped back and kept only when it is
+    /// still accepted or plausible on the user's data, its check the user's. Data without a
+    /// frame is searched as given.
+    pub fn plausible_end_points_canonical<C>(
+        &self,
+        canon: &C,
+        data: &D,
+        max: usize,
+        same: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
+    ) -> Result<Vec<Solved<V::Check, NX>>, T::Error>
+    where
+        C: Canonicalize<D, NX>,
+    {
+        let Some((frame, canonical)) = canon.canonicalize(data) else {
+            return self.plausible_end_points(data, max, same);
+        };
+        let mut found = self.plausible_end_points(canonical.borrow(), max, same)?;
+        for s in &mut found {
+            s.x = canon.to_user(&frame, &s.x);
+            s.start = canon.to_user(&frame, &s.start);
+            s.check = self.validator.check(data, &s.x);
+        }
+        found.retain(|s| self.validator.verdict(&s.check) != Verdict::Reject);
+        Ok(found)
+    }
+
     /// One attempt from `x0` with `method`; adds its time to `times`.
     fn attempt(
         &self,

@@ -4,7 +4,10 @@
 //! - **Samples** are as many rows as the problem's data instance has (the tracked rows and the
 //!   rows that validate them, e.g. 6 + 1). Each gets the first attempt of the shipped schedule
 //!   only ([`super::sample_schedule`]: Gauss-Newton from the learned start) and no
-//!   fallback: a sample that does not validate at once yields no model.
+//!   fallback: a sample that does not validate at once yields no model. A problem may ask for
+//!   more ([`DeclaredProblem::SAMPLE_ATTEMPTS`] of the solver's schedule) and for up to
+//!   [`DeclaredProblem::SAMPLE_CANDIDATES`] distinct validated end points per sample, each
+//!   scored as a model: a minimal sample's real roots all fit it, and the consensus picks.
 //! - **Scoring**: MSAC on the problem's per-correspondence error
 //!   ([`DeclaredProblem::row_error`]; by default the largest absolute row residual,
 //!   [`row_residual`]).
@@ -252,8 +255,18 @@ where
             p.as_mut_slice()[k * layout.per_row..(k + 1) * layout.per_row].copy_from_slice(data[i]);
         }
         p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(self.globals);
-        if let Ok(s) = self.solver.run_pipeline(&p, sample_schedule(S::REFINES), false, None) {
-            out.push(s.x);
+        if S::SAMPLE_CANDIDATES <= 1 && S::SAMPLE_ATTEMPTS <= 1 {
+            if let Ok(s) = self.solver.run_pipeline(&p, sample_schedule(S::REFINES), false, None) {
+                out.push(s.x);
+            }
+            return;
+        }
+        let schedule = self.solver.schedule();
+        let schedule = &schedule[..S::SAMPLE_ATTEMPTS.min(schedule.len())];
+        let problem = self.solver.problem();
+        let max = S::SAMPLE_CANDIDATES.max(1);
+        if let Ok(found) = self.solver.plausible_end_points(&p, schedule, max, |a, b| problem.same_solution(a, b)) {
+            out.extend(found.iter().map(|s| s.x));
         }
     }
 

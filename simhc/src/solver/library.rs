@@ -291,6 +291,10 @@ pub type Check<V, const NX: usize, const ND: usize> = CheckOf<V, NX, SVector<f64
 pub type InstancePipelineOutcome<V, const NX: usize, D> =
     Result<Solved<CheckOf<V, NX, D>, NX>, PipelineError<FirstRowsError, CheckOf<V, NX, D>, NX>>;
 
+/// One end point of [`InstanceSolver::plausible_end_points`], for a problem whose validator of
+/// the data `D` is `V`.
+pub type PlausibleEndPoint<V, const NX: usize, D> = Solved<CheckOf<V, NX, D>, NX>;
+
 /// [`InstancePipelineOutcome`] of a data vector.
 pub type PipelineOutcome<V, const NX: usize, const ND: usize> = InstancePipelineOutcome<V, NX, SVector<f64, ND>>;
 
@@ -487,9 +491,40 @@ where
         fallback: bool,
         extra: Option<&dyn StartProvider<D, NX>>,
     ) -> InstancePipelineOutcome<S::Validator, NX, D> {
+        self.with_pipeline(data, schedule, fallback, extra, |pipeline, canon| pipeline.solve_canonical(canon, data))
+            .map_err(PipelineError::Input)?
+    }
+
+    /// Up to `max` distinct end points (`same` tells duplicates) that the validator accepts or
+    /// finds plausible on all the data, from the attempts of `schedule` in order, without the
+    /// fallback: the models of a RANSAC sample ([`super::estimate`]). With a minimal sample
+    /// every real root fits it exactly, so several may validate; the consensus picks.
+    pub fn plausible_end_points(
+        &self,
+        data: &D,
+        schedule: &[Attempt],
+        max: usize,
+        same: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
+    ) -> Result<Vec<PlausibleEndPoint<S::Validator, NX, D>>, FirstRowsError> {
+        self.with_pipeline(data, schedule, false, None, |pipeline, canon| pipeline.plausible_end_points_canonical(canon, data, max, same))?
+    }
+
+    /// The pipeline of a solve of `data` ([`InstanceSolver::run_pipeline`]) and the problem's
+    /// canonical frame, handed to `run`; an input error when the data is not an instance.
+    fn with_pipeline<R>(
+        &self,
+        data: &D,
+        schedule: &[Attempt],
+        fallback: bool,
+        extra: Option<&dyn StartProvider<D, NX>>,
+        run: impl FnOnce(
+            &Pipeline<'_, S::Tracked, D, Parts<'_, S, NX, NF, NC>, OwnSimulator<'_, S, NC>, S::Validator, NX, NF, NP, NC>,
+            &OwnCanon<'_, S, NF, NP, NC>,
+        ) -> R,
+    ) -> Result<R, FirstRowsError> {
         // The user's data is checked before a canonical frame mixes its rows, so that an error
         // names the row and field the user wrote.
-        self.problem.check_data(data).map_err(PipelineError::Input)?;
+        self.problem.check_data(data)?;
         let problem = &*self.problem;
         let target = Parts::<S, NX, NF, NC>(problem);
         let simulator = OwnSimulator::<S, NC>(problem);
@@ -531,7 +566,7 @@ where
         if fallback && problem.has_fallback() {
             pipeline = pipeline.with_fallback(&all_roots);
         }
-        pipeline.solve_canonical(&OwnCanon::<S, NF, NP, NC>(problem), data)
+        Ok(run(&pipeline, &OwnCanon::<S, NF, NP, NC>(problem)))
     }
 
     /// [`InstanceSolver::solve`] on every element of `data`, in order, across rayon's threads.

@@ -54,6 +54,15 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// How many restarts [`DeclaredProblem::restart`] makes (at most [`super::MAX_RESTARTS`]:
     /// more is a [`super::SolverError::TooMany`]). Default: none.
     const RESTARTS: usize = 0;
+    /// Models a RANSAC sample may give ([`super::Solver::estimate`]): at most this many distinct
+    /// end points ([`DeclaredProblem::same_solution`]) that validate on the sample. Default `1`:
+    /// the first. More helps a minimal sample, whose every real root fits it exactly: the
+    /// consensus then picks the true one among them.
+    const SAMPLE_CANDIDATES: usize = 1;
+    /// Attempts a RANSAC sample runs: the first this many of the solver's schedule
+    /// ([`super::Solver::schedule`]; the fallback never). Default `1`: Gauss-Newton from the
+    /// learned start ([`super::sample_schedule`]).
+    const SAMPLE_ATTEMPTS: usize = 1;
 
     /// A scene with noise of size `noise` (the problem's unit, for example pixels): the
     /// parameters of all its rows (`Data`) and its true unknowns.
@@ -186,6 +195,12 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// Sampson) makes the threshold mean the same for every correspondence.
     fn row_error(&self, x: &SVector<f64, NX>, row: &[f64], globals: &[f64]) -> f64 {
         super::estimate::row_residual::<Self::Tracked, NX, NF, NP, NC>(x, row, globals)
+    }
+    /// Whether two end points of one RANSAC sample are the same solution (only one is kept,
+    /// [`DeclaredProblem::SAMPLE_CANDIDATES`]). Default: every unknown within `1e-6` relative;
+    /// a problem with a sign ambiguity (a quaternion `q` and `-q`) says so here.
+    fn same_solution(&self, a: &SVector<f64, NX>, b: &SVector<f64, NX>) -> bool {
+        (a - b).amax() <= 1e-6 * (1.0 + a.amax())
     }
 }
 

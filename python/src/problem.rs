@@ -64,7 +64,7 @@ where
     }
     fn estimate(&self, rows: &[f64], globals: &[f64], options: &RansacOptions) -> Result<(Vec<f64>, EstimateInfo), Failure> {
         Solver::estimate(self, rows, globals, options).map(|(x, info)| (x.as_slice().to_vec(), info)).map_err(|e| match e {
-            EstimateError::NoModel { .. } => Failure::NoSolution(e.to_string()),
+            EstimateError::NoModel { .. } | EstimateError::NotSolved { .. } => Failure::NoSolution(e.to_string()),
             _ => Failure::Input(e.to_string()),
         })
     }

@@ -203,9 +203,8 @@ pub enum SolveError<C: Debug, const NX: usize> {
 
 /// Whether a solve certifies its solution ([`InstanceSolver::certifying`]).
 ///
-/// Off by default: a certificate costs about as much as a solve (1.1-1.5x on UPnP and GRPS,
-/// scalar interval arithmetic; BENCHMARKS.md, 2026-12-05), which a hot loop should not pay
-/// unasked. The `solve` command, Python and the estimators' final models ask.
+/// Off by default: a certificate costs 1.1-3.7x a solve (scalar interval arithmetic; `bench`
+/// prints the ratio, BENCHMARKS.md 2026-12-05), which a hot loop should not pay unasked. The `solve` command, Python and the estimators' final models ask.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum Certification {
     /// No certificate (`Solution::certified` is `None`).

@@ -213,7 +213,7 @@ def test_bad_input_raises_input_error_that_says_where():
     vp2[4, 0] = 0.0
     with pytest.raises(simhc.InputError, match="exactly 7"):
         simhc.gen_relpose(f2[:6], v2[:6], fp2[:6], vp2[:6])
-    with pytest.raises(simhc.InputError, match="a sample needs 7"):
+    with pytest.raises(simhc.InputError, match="too few correspondences: got 5, need at least 7"):
         simhc.estimate_gen_relpose(f2[:5], v2[:5], fp2[:5], vp2[:5])
     with pytest.raises(simhc.InputError, match="threshold"):
         simhc.estimate_gen_relpose(f2, v2, fp2, vp2, threshold=-1.0)

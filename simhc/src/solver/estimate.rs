@@ -96,7 +96,7 @@ pub enum EstimateError {
         expected: usize,
     },
     /// Fewer rows than one sample.
-    #[error("{rows} correspondences, a sample needs {needed}")]
+    #[error("too few correspondences: got {rows}, need at least {needed} (one sample)")]
     TooFew {
         /// Rows given.
         rows: usize,

@@ -249,12 +249,7 @@ where
     }
 
     fn solve(&self, data: &[&'a [f64]], indices: &[usize], out: &mut Vec<SVector<f64, NX>>) {
-        let layout = S::Data::LAYOUT;
-        let mut p = SVector::<f64, ND>::zeros();
-        for (k, &i) in indices.iter().enumerate() {
-            p.as_mut_slice()[k * layout.per_row..(k + 1) * layout.per_row].copy_from_slice(data[i]);
-        }
-        p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(self.globals);
+        let p = self.instance(data, indices.iter().copied());
         if S::SAMPLE_CANDIDATES <= 1 && S::SAMPLE_ATTEMPTS <= 1 {
             if let Ok(s) = self.solver.run_pipeline(&p, sample_schedule(S::REFINES), false, None) {
                 out.push(s.x);
@@ -344,6 +339,18 @@ impl<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, 
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
+    /// The data instance of the rows `indices` (as many as the instance has) and the globals:
+    /// a sample, or the inliers a model is certified on.
+    fn instance(&self, data: &[&[f64]], indices: impl Iterator<Item = usize>) -> SVector<f64, ND> {
+        let layout = S::Data::LAYOUT;
+        let mut p = SVector::<f64, ND>::zeros();
+        for (k, i) in indices.take(layout.rows).enumerate() {
+            p.as_mut_slice()[k * layout.per_row..(k + 1) * layout.per_row].copy_from_slice(data[i]);
+        }
+        p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(self.globals);
+        p
+    }
+
     /// The problem's error of `row` at `x` as a smooth residual through zero, and its gradient
     /// by forward differences: the error's own gradient, not that of the algebraic row
     /// equations scaled to it (a geometric error divides by a norm that moves with the
@@ -415,11 +422,11 @@ where
         let data: Vec<&[f64]> = rows.chunks_exact(per_row).collect();
         let samples = Samples::<S, NX, NF, NP, NC, ND> { solver: self, globals, threshold: options.threshold, sizes: PhantomData };
         if n == layout.rows {
-            return self.estimate_one_sample(&samples, &data, rows, globals);
+            return self.estimate_one_sample(&samples, &data);
         }
         let r = ransac(&samples, &data, options).ok_or(EstimateError::NoModel { iterations: options.max_iterations })?;
         let (x, mut info) = EstimateInfo::split(r);
-        info.certified = self.certify_model(&samples, &data, globals, &x, &info.inliers);
+        info.certified = self.certify_model(&samples, &data, &x, &info.inliers);
         Ok((x, info))
     }
 
@@ -430,7 +437,6 @@ where
         &self,
         samples: &Samples<'_, S, NX, NF, NP, NC, ND>,
         data: &[&[f64]],
-        globals: &[f64],
         x: &SVector<f64, NX>,
         inliers: &[usize],
     ) -> Option<Result<f64, crate::certify::CertifyError>> {
@@ -440,11 +446,7 @@ where
         }
         let mut best: Vec<(f64, usize)> = inliers.iter().map(|&i| (samples.residual(x, &data[i]), i)).collect();
         best.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut p = SVector::<f64, ND>::zeros();
-        for (k, &(_, i)) in best.iter().take(layout.rows).enumerate() {
-            p.as_mut_slice()[k * layout.per_row..(k + 1) * layout.per_row].copy_from_slice(data[i]);
-        }
-        p.as_mut_slice()[layout.rows * layout.per_row..].copy_from_slice(globals);
+        let p = samples.instance(data, best.iter().map(|&(_, i)| i));
         Some(self.certify(&p, x).map(|c| c.error_bound()))
     }
 
@@ -456,12 +458,8 @@ where
         &self,
         samples: &Samples<'_, S, NX, NF, NP, NC, ND>,
         data: &[&[f64]],
-        rows: &[f64],
-        globals: &[f64],
     ) -> Result<(SVector<f64, NX>, EstimateInfo), EstimateError> {
-        let mut p = SVector::<f64, ND>::zeros();
-        p.as_mut_slice()[..rows.len()].copy_from_slice(rows);
-        p.as_mut_slice()[rows.len()..].copy_from_slice(globals);
+        let p = samples.instance(data, 0..data.len());
         let x = self.solve(&p).map_err(|e| EstimateError::NotSolved { rows: data.len(), reason: e.to_string() })?.x;
         let t2 = samples.threshold * samples.threshold;
         let errors: Vec<f64> = data.iter().map(|row| samples.residual(&x, row)).collect();

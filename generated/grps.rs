@@ -2,6 +2,14 @@
 // Do not edit: regenerate with `cargo run -p xtask -- regenerate`.
 
 pub mod grps {
+    /// Number of unknown scalars (every instance's `NX`).
+    pub const NX: usize = 8;
+    /// The unknowns as a vector, in layout order.
+    pub type UnknownVector = ::simhc::__private::nalgebra::SVector<f64, NX>;
+    /// A canonical frame of this problem's unknowns (`simhc::solver::CanonicalFrame`).
+    pub type CanonicalFrame = ::simhc::solver::CanonicalFrame<NX>;
+    /// What a refinement on all rows did (`simhc::solver::Refinement`).
+    pub type Refinement = ::simhc::solver::Refinement<NX>;
     /// The unknowns of the problem.
     #[derive(Debug, Clone, Copy, PartialEq, Default)]
     pub struct Unknowns {
@@ -1726,7 +1734,47 @@ pub mod grps {
             u.write_to(&mut buf);
             ::simhc::__private::nalgebra::SVector::<f64, 8>::from(buf)
         }
+        /// Gauss-Newton on this instance's equations from `x0`
+        /// (`simhc::pipeline::path::gauss_newton` with this instance's sizes).
+        pub fn gauss_newton(
+            x0: &::simhc::__private::nalgebra::SVector<f64, 8>,
+            p: &::simhc::__private::nalgebra::SVector<f64, 84>,
+            options: &::simhc::tracker::NewtonOptions,
+        ) -> ::core::result::Result<
+            (
+                ::simhc::__private::nalgebra::SVector<f64, 8>,
+                ::simhc::tracker::TrackStats,
+            ),
+            ::simhc::tracker::TrackError,
+        > {
+            ::simhc::pipeline::path::gauss_newton::<Self, 8, 8, 84>(x0, p, options)
+        }
+        /// This instance's parameters from data of at least as many rows: its first rows
+        /// and the globals (`simhc::Layout::first_rows`); `None` when `p` is too short.
+        pub fn first_rows(
+            p: &[f64],
+        ) -> ::core::option::Option<::simhc::__private::nalgebra::SVector<f64, 84>> {
+            <Self as ::simhc::ProblemLayout>::LAYOUT.first_rows::<84>(p)
+        }
+        /// All roots of this square instance from a start system (`monodromy`'s JSON;
+        /// `None`: not made yet), `expected` the solution count from theory if known: a
+        /// problem's all-roots fallback (`simhc::solver::SquareSubsystem::new`).
+        pub fn square_subsystem(
+            start_json: ::core::option::Option<&str>,
+            expected: ::core::option::Option<usize>,
+        ) -> ::core::result::Result<
+            SquareSubsystem7,
+            ::simhc::start_system::StartSystemError,
+        > {
+            ::simhc::solver::SquareSubsystem::new(start_json, expected)
+        }
     }
+    /// The parameter vector of [`Grps7`] (84 numbers).
+    pub type Params7 = ::simhc::__private::nalgebra::SVector<f64, 84>;
+    /// An all-roots fallback for data of [`Grps7`]: `simhc::solver::AllRoots` with its sizes.
+    pub type AllRoots7<'a> = dyn ::simhc::solver::AllRoots<8, 84> + 'a;
+    /// All roots of [`Grps7`] by a start system: `simhc::solver::SquareSubsystem` with its sizes.
+    pub type SquareSubsystem7 = ::simhc::solver::SquareSubsystem<Grps7, 8, 84, 266>;
     impl ::simhc::ProblemInfo for Grps7 {
         const NAME: &'static str = "grps7";
         const UNKNOWN_NAMES: &'static [&'static str] = &[
@@ -10082,7 +10130,33 @@ pub mod grps {
             u.write_to(&mut buf);
             ::simhc::__private::nalgebra::SVector::<f64, 8>::from(buf)
         }
+        /// Gauss-Newton on this instance's equations from `x0`
+        /// (`simhc::pipeline::path::gauss_newton` with this instance's sizes).
+        pub fn gauss_newton(
+            x0: &::simhc::__private::nalgebra::SVector<f64, 8>,
+            p: &::simhc::__private::nalgebra::SVector<f64, 96>,
+            options: &::simhc::tracker::NewtonOptions,
+        ) -> ::core::result::Result<
+            (
+                ::simhc::__private::nalgebra::SVector<f64, 8>,
+                ::simhc::tracker::TrackStats,
+            ),
+            ::simhc::tracker::TrackError,
+        > {
+            ::simhc::pipeline::path::gauss_newton::<Self, 8, 9, 96>(x0, p, options)
+        }
+        /// This instance's parameters from data of at least as many rows: its first rows
+        /// and the globals (`simhc::Layout::first_rows`); `None` when `p` is too short.
+        pub fn first_rows(
+            p: &[f64],
+        ) -> ::core::option::Option<::simhc::__private::nalgebra::SVector<f64, 96>> {
+            <Self as ::simhc::ProblemLayout>::LAYOUT.first_rows::<96>(p)
+        }
     }
+    /// The parameter vector of [`Grps8`] (96 numbers).
+    pub type Params8 = ::simhc::__private::nalgebra::SVector<f64, 96>;
+    /// An all-roots fallback for data of [`Grps8`]: `simhc::solver::AllRoots` with its sizes.
+    pub type AllRoots8<'a> = dyn ::simhc::solver::AllRoots<8, 96> + 'a;
     impl ::simhc::ProblemInfo for Grps8 {
         const NAME: &'static str = "grps8";
         const UNKNOWN_NAMES: &'static [&'static str] = &[

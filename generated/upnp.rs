@@ -2,6 +2,14 @@
 // Do not edit: regenerate with `cargo run -p xtask -- regenerate`.
 
 pub mod upnp {
+    /// Number of unknown scalars (every instance's `NX`).
+    pub const NX: usize = 4;
+    /// The unknowns as a vector, in layout order.
+    pub type UnknownVector = ::simhc::__private::nalgebra::SVector<f64, NX>;
+    /// A canonical frame of this problem's unknowns (`simhc::solver::CanonicalFrame`).
+    pub type CanonicalFrame = ::simhc::solver::CanonicalFrame<NX>;
+    /// What a refinement on all rows did (`simhc::solver::Refinement`).
+    pub type Refinement = ::simhc::solver::Refinement<NX>;
     /// The unknowns of the problem.
     #[derive(Debug, Clone, Copy, PartialEq, Default)]
     pub struct Unknowns {
@@ -267,7 +275,33 @@ pub mod upnp {
             u.write_to(&mut buf);
             ::simhc::__private::nalgebra::SVector::<f64, 4>::from(buf)
         }
+        /// Gauss-Newton on this instance's equations from `x0`
+        /// (`simhc::pipeline::path::gauss_newton` with this instance's sizes).
+        pub fn gauss_newton(
+            x0: &::simhc::__private::nalgebra::SVector<f64, 4>,
+            p: &::simhc::__private::nalgebra::SVector<f64, 66>,
+            options: &::simhc::tracker::NewtonOptions,
+        ) -> ::core::result::Result<
+            (
+                ::simhc::__private::nalgebra::SVector<f64, 4>,
+                ::simhc::tracker::TrackStats,
+            ),
+            ::simhc::tracker::TrackError,
+        > {
+            ::simhc::pipeline::path::gauss_newton::<Self, 4, 5, 66>(x0, p, options)
+        }
+        /// This instance's parameters from data of at least as many rows: its first rows
+        /// and the globals (`simhc::Layout::first_rows`); `None` when `p` is too short.
+        pub fn first_rows(
+            p: &[f64],
+        ) -> ::core::option::Option<::simhc::__private::nalgebra::SVector<f64, 66>> {
+            <Self as ::simhc::ProblemLayout>::LAYOUT.first_rows::<66>(p)
+        }
     }
+    /// The parameter vector of [`Upnp`] (66 numbers).
+    pub type Params = ::simhc::__private::nalgebra::SVector<f64, 66>;
+    /// An all-roots fallback for data of [`Upnp`]: `simhc::solver::AllRoots` with its sizes.
+    pub type AllRoots<'a> = dyn ::simhc::solver::AllRoots<4, 66> + 'a;
     impl ::simhc::ProblemInfo for Upnp {
         const NAME: &'static str = "upnp";
         const UNKNOWN_NAMES: &'static [&'static str] = &["q[0]", "q[1]", "q[2]", "q[3]"];

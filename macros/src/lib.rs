@@ -10,3 +10,10 @@ use proc_macro::TokenStream;
 pub fn simhc_problem(attr: TokenStream, item: TokenStream) -> TokenStream {
     solvergen::expand(attr.into(), item.into()).into()
 }
+
+/// On `impl simhc::solver::DeclaredProblem for YourProblem { type Tracked = ..; type Data = ..; .. }`:
+/// fills in the trait's sizes from the two instances, so the impl writes no number.
+#[proc_macro_attribute]
+pub fn declared_problem(attr: TokenStream, item: TokenStream) -> TokenStream {
+    solvergen::registration::expand(attr.into(), item.into()).into()
+}

@@ -41,7 +41,7 @@ pub use problem::{
     RowLayout,
 };
 pub use scalar::{Ring, Scalar};
-pub use simhc_macros::simhc_problem;
+pub use simhc_macros::{declared_problem, simhc_problem};
 pub use simulator::{onto_parameter_free, MinNormSimulator, OnlineSimulator, SimulatorError};
 
 /// Re-exports used by generated code, so user crates need no direct dependency on them.

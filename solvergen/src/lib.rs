@@ -19,6 +19,7 @@ pub mod decl;
 pub mod emit;
 pub mod lower;
 pub mod poly;
+pub mod registration;
 
 use coefficients::CoefficientSplit;
 use ctxt::Ctxt;
@@ -130,6 +131,15 @@ fn validate(cx: &mut Ctxt, decl: &decl::Declaration, probe: &lower::Instance) {
         }
         first_var += count;
     }
+    // The module's own items must not take the names the expansion emits.
+    let emitted = emit::emitted_names(decl);
+    for item in &decl.passthrough {
+        if let Some(ident) = item_ident(item) {
+            if emitted.iter().any(|name| ident == name) {
+                cx.error_spanned_by(ident, format!("`{ident}` is a name `#[simhc_problem]` emits in this module; rename this item"));
+            }
+        }
+    }
     for (i, f) in probe.equations.iter().enumerate() {
         if f.is_zero() {
             let at = if i < probe.eqs_per_row { &decl.row_equations } else { &decl.global_equations };
@@ -137,6 +147,22 @@ fn validate(cx: &mut Ctxt, decl: &decl::Declaration, probe: &lower::Instance) {
                 cx.error_spanned_by(&fun.ident, "an equation is identically zero");
             }
         }
+    }
+}
+
+/// The name an item defines in its module, if it defines one.
+fn item_ident(item: &syn::Item) -> Option<&syn::Ident> {
+    match item {
+        syn::Item::Const(i) => Some(&i.ident),
+        syn::Item::Enum(i) => Some(&i.ident),
+        syn::Item::Fn(i) => Some(&i.sig.ident),
+        syn::Item::Mod(i) => Some(&i.ident),
+        syn::Item::Static(i) => Some(&i.ident),
+        syn::Item::Struct(i) => Some(&i.ident),
+        syn::Item::Trait(i) => Some(&i.ident),
+        syn::Item::Type(i) => Some(&i.ident),
+        syn::Item::Union(i) => Some(&i.ident),
+        _ => None,
     }
 }
 

@@ -8,13 +8,12 @@
 //! coplanar: one equation per correspondence. Six give 64 solutions (modulo `q -> -q`); the
 //! solver uses six plus one that validates, as the paper's 8-point GRPS solver does.
 
-use nalgebra::{Matrix3, SVector, UnitQuaternion, Vector3, Vector4};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3, Vector4};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::frames::bearing_frame;
-use simhc::pipeline::path::gauss_newton;
 use simhc::pipeline::{Validator, Verdict};
-use simhc::solver::{AllRoots, CanonicalFrame, DeclaredProblem, Refinement, SquareSubsystem};
+use simhc::solver::DeclaredProblem;
 use simhc::training::LearnedStartConfig;
 
 /// 1. The declaration. `Grp7` is solved (6 rows determine the pose, the 7th validates);
@@ -42,12 +41,12 @@ pub mod grp {
     }
 }
 
-pub use grp::{Grp6, Grp7};
+pub use grp::{CanonicalFrame, Grp6, Grp7};
 
 /// Parameters of a 7-correspondence instance (7 rows of `f, v, fp, vp`).
-pub type Params = SVector<f64, 84>;
+pub type Params = grp::Params7;
 /// The unknowns `[q, t]`.
-pub type Unknowns = SVector<f64, 7>;
+pub type Unknowns = grp::UnknownVector;
 /// Focal length in pixels that converts `--noise` (pixels) to angles.
 pub const FOCAL_PX: f64 = 800.0;
 
@@ -58,13 +57,13 @@ pub static WEIGHTS: &[u8] = include_bytes!("../weights/grp.folded");
 
 /// The problem with its all-roots subsystem.
 pub struct GenRelPose {
-    all_roots: SquareSubsystem<Grp6, 7, 72, { Grp6::NC }>,
+    all_roots: grp::SquareSubsystem6,
 }
 
 impl GenRelPose {
     /// The problem with the shipped start system.
     pub fn new() -> Self {
-        let all_roots = SquareSubsystem::new(Some(START_SYSTEM), Some(64)).expect("the shipped start system parses (tested)");
+        let all_roots = Grp6::square_subsystem(Some(START_SYSTEM), Some(64)).expect("the shipped start system parses (tested)");
         Self { all_roots }
     }
 }
@@ -115,7 +114,7 @@ pub fn pose(x: &Unknowns) -> (Matrix3<f64>, Vector3<f64>) {
 }
 
 fn unknowns(q: &UnitQuaternion<f64>, t: &Vector3<f64>) -> Unknowns {
-    SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z])
+    Unknowns::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z])
 }
 
 /// 2. The scene sampler: rig 1 at the origin with 2-7 cameras in `[-1, 1]^3`, points in
@@ -184,7 +183,7 @@ pub fn move_frames(rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> (Params, U
 ///    [`bearing_frame`] (mean bearing to `+z`, principal spread to `+x`), both rigs scaled by
 ///    one factor (the rms distance of the centred origins). With `X' = k R_i (X - c_i)` in each
 ///    rig, the pose becomes `R' = R_1 R R_2^T`, `t' = k R_1 (R c_2 + t - c_1)`.
-pub fn canonicalize(p: &Params) -> Option<(Params, CanonicalFrame<7>)> {
+pub fn canonicalize(p: &Params) -> Option<(Params, CanonicalFrame)> {
     let rows: [[Vector3<f64>; 4]; 7] = std::array::from_fn(|i| row(p, i));
     let frame = |k: usize| bearing_frame(rows.iter().map(|r| r[k]));
     let (r1, r2) = (frame(0)?, frame(2)?);
@@ -264,7 +263,7 @@ fn sampson_angle(r: &Matrix3<f64>, t: &Vector3<f64>, [f, v, fp, vp]: &[Vector3<f
     }
 }
 
-impl Validator<Params, 7> for Coplanarity {
+impl Validator<Params, { grp::NX }> for Coplanarity {
     /// (correspondences met behind a rig, largest angle to the plane in radians)
     type Check = (usize, f64);
 
@@ -312,8 +311,10 @@ pub fn errors(x: &Unknowns, truth: &Unknowns) -> [f64; 2] {
 
 /// 5. The registration: what `grp train|bench|solve|monodromy grp` need. Paths are tracked on
 ///    the first 6 correspondences (`Grp6`, square: 7 equations, 7 unknowns); all 7 are read by
-///    the learned start and checked by the validator.
-impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
+///    the learned start and checked by the validator. `#[declared_problem]` takes the trait's
+///    sizes from `Tracked` and `Data`.
+#[simhc::declared_problem]
+impl DeclaredProblem for GenRelPose {
     type Tracked = Grp6;
     type Data = Grp7;
     type Validator = Coplanarity;
@@ -333,7 +334,7 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
     fn correct(&self, e: &[f64]) -> bool {
         e[0] < 2.0 && e[1] < 5.0
     }
-    fn canonicalize(&self, p: &Params) -> Option<(Params, CanonicalFrame<7>)> {
+    fn canonicalize(&self, p: &Params) -> Option<(Params, CanonicalFrame)> {
         canonicalize(p)
     }
     fn training(&self) -> LearnedStartConfig {
@@ -347,8 +348,8 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
         LearnedStartConfig::default()
     }
     const REFINES: bool = true;
-    fn refine(&self, p: &Params, x0: &Unknowns) -> Refinement<7> {
-        gauss_newton::<Grp7, 7, 8, 84>(x0, p, &Default::default()).map(|(x, _)| x).into()
+    fn refine(&self, p: &Params, x0: &Unknowns) -> grp::Refinement {
+        Grp7::gauss_newton(x0, p, &Default::default()).map(|(x, _)| x).into()
     }
     fn weights(&self) -> Option<&'static [u8]> {
         Some(WEIGHTS)
@@ -356,7 +357,7 @@ impl DeclaredProblem<7, 7, 72, { Grp6::NC }, 84> for GenRelPose {
     fn move_frames(&self, rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> Option<(Params, Unknowns)> {
         Some(move_frames(rng, p, x))
     }
-    fn all_roots(&self) -> Option<&dyn AllRoots<7, 84>> {
+    fn all_roots(&self) -> Option<&grp::AllRoots7<'_>> {
         Some(&self.all_roots)
     }
     fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, Unknowns)> {

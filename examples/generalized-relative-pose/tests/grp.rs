@@ -2,21 +2,23 @@
 //! weights, and its four commands from the registration, run as a user runs them.
 
 use generalized_relative_pose::{
-    canonicalize, errors, move_frames, scene, Coplanarity, GenRelPose, Grp6, Grp7, Params, Unknowns, START_SYSTEM,
+    canonicalize, errors, grp, move_frames, scene, Coplanarity, GenRelPose, Grp6, Grp7, Params, Unknowns, START_SYSTEM,
 };
 use nalgebra::{SMatrix, SVector};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use simhc::all_roots::StartSystem;
 use simhc::pipeline::{Validator, Verdict};
 use simhc::Problem;
 use std::process::Command;
 
-/// Central differences of the residual against the generated Jacobian.
-fn jacobian_matches<P: Problem<7, NF, NP>, const NF: usize, const NP: usize>(x: &SVector<f64, 7>, p: &SVector<f64, NP>) -> f64 {
-    let mut j = SMatrix::<f64, NF, 7>::zeros();
+/// Central differences of the residual of instance `P` (a value, so that its sizes are
+/// inferred) against the generated Jacobian.
+fn jacobian_matches<P: Problem<{ grp::NX }, NF, NP>, const NF: usize, const NP: usize>(_: P, x: &Unknowns, p: &SVector<f64, NP>) -> f64 {
+    let mut j = SMatrix::<f64, NF, { grp::NX }>::zeros();
     P::jacobian(x, p, &mut j);
     let mut worst = 0.0f64;
-    for k in 0..7 {
+    for k in 0..grp::NX {
         let h = 1e-6;
         let (mut xp, mut xm) = (*x, *x);
         xp[k] += h;
@@ -36,9 +38,9 @@ fn generated_jacobians_match_central_differences() {
     for _ in 0..20 {
         let (p, x) = scene(&mut rng, 0.0);
         let x = x + SVector::from_fn(|i, _| 0.1 * (i as f64 - 3.0));
-        assert!(jacobian_matches::<Grp7, 8, 84>(&x, &p) < 1e-7);
-        let p6 = <Grp6 as simhc::ProblemLayout>::LAYOUT.first_rows::<72>(p.as_slice()).unwrap();
-        assert!(jacobian_matches::<Grp6, 7, 72>(&x, &p6) < 1e-7);
+        assert!(jacobian_matches(Grp7, &x, &p) < 1e-7);
+        let p6 = Grp6::first_rows(p.as_slice()).unwrap();
+        assert!(jacobian_matches(Grp6, &x, &p6) < 1e-7);
     }
 }
 
@@ -67,7 +69,7 @@ fn the_sampler_and_the_frame_change_keep_the_truth_a_solution() {
 #[test]
 fn the_shipped_start_system_has_64_solutions_of_small_residual() {
     let file = simhc::start_system::StartSystemFile::from_json(START_SYSTEM).expect("parses");
-    let start = file.start_system::<7, 72>().expect("sizes");
+    let start: StartSystem<{ grp::NX }, { Grp6::NP }> = file.start_system().expect("sizes");
     assert_eq!(start.solutions.len(), 64);
     assert!(start.max_residual::<Grp6>() < 1e-9, "{}", start.max_residual::<Grp6>());
     let _ = GenRelPose::new();
@@ -295,7 +297,7 @@ fn the_robust_estimator_finds_the_pose_among_wrong_matches() {
     let (r, t) = (q.to_rotation_matrix().into_inner(), Vector3::new(0.5, -1.0, 0.8));
     let (rows, inlier) = rig_matches(&mut rng, &r, &t, 60, 0.0, |k| k % 5 != 0);
     let problem = GenRelPose::new();
-    let truth = SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z]);
+    let truth = Unknowns::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z]);
     assert!(problem.row_error(&truth, &rows[12..24], &[]) < 1e-12, "an inlier's error at the truth is zero");
     assert!(problem.row_error(&truth, &rows[..12], &[]) > 1e-3, "a wrong match's is not");
     let solver = simhc::solver::Solver::new(problem).expect("shipped weights");
@@ -325,8 +327,8 @@ fn the_robust_estimate_is_within_the_noise() {
     let (rows, inlier) = rig_matches(&mut rng, &r, &t, 150, sigma, |k| k % 10 >= 3);
     let threshold = 3.0 * std::f64::consts::SQRT_2 * sigma;
     let problem = GenRelPose::new();
-    let truth = SVector::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z]);
-    let cost = |x: &SVector<f64, 7>| -> f64 {
+    let truth = Unknowns::from([q.w, q.i, q.j, q.k, t.x, t.y, t.z]);
+    let cost = |x: &Unknowns| -> f64 {
         rows.chunks_exact(12)
             .zip(&inlier)
             .filter(|(_, good)| **good)
@@ -419,7 +421,7 @@ fn a_users_problem_is_certified_without_a_line_of_its_own() {
         solved += 1;
         if let Some(Ok(c)) = s.certified {
             let mut flipped = x;
-            flipped.fixed_rows_mut::<4>(0).neg_mut();
+            flipped.rows_mut(0, 4).neg_mut();
             assert!(c.box_contains(&x) || c.box_contains(&flipped), "trial {k}: the certified box misses the truth");
             certified += 1;
             // A point 1e-3 off the root: a certificate of it, if any, must enclose the root and

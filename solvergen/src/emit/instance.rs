@@ -133,6 +133,46 @@ pub(super) fn instance(decl: &Declaration, lowered: &Lowered, expanded: &Expande
         quote!(::simhc::FieldNorm { field: #field, equation: #equation, norm: #norm })
     });
     let eqs_per_row = n(inst.eqs_per_row);
+    // Names of this instance's sizes, so that user code writes no number (`Params7`,
+    // `AllRoots7`, `SquareSubsystem6`; without rows, no suffix).
+    let suffix = if has_rows { inst.rows.to_string() } else { String::new() };
+    let params_alias = format_ident!("Params{suffix}");
+    let all_roots_alias = format_ident!("AllRoots{suffix}");
+    let subsystem_alias = format_ident!("SquareSubsystem{suffix}");
+    let params_doc = format!(" The parameter vector of [`{type_name}`] ({np_v} numbers).");
+    let all_roots_doc = format!(" An all-roots fallback for data of [`{type_name}`]: `simhc::solver::AllRoots` with its sizes.");
+    let subsystem_doc = format!(" All roots of [`{type_name}`] by a start system: `simhc::solver::SquareSubsystem` with its sizes.");
+    let square = nf_v == nx_v;
+    let square_subsystem = if square {
+        quote! {
+            /// All roots of this square instance from a start system (`monodromy`'s JSON;
+            /// `None`: not made yet), `expected` the solution count from theory if known: a
+            /// problem's all-roots fallback (`simhc::solver::SquareSubsystem::new`).
+            pub fn square_subsystem(
+                start_json: ::core::option::Option<&str>,
+                expected: ::core::option::Option<usize>,
+            ) -> ::core::result::Result<#subsystem_alias, ::simhc::start_system::StartSystemError> {
+                ::simhc::solver::SquareSubsystem::new(start_json, expected)
+            }
+        }
+    } else {
+        quote!()
+    };
+    let subsystem_type = if square {
+        quote! {
+            #[doc = #subsystem_doc]
+            pub type #subsystem_alias = ::simhc::solver::SquareSubsystem<#type_name, #nx, #np, #nc>;
+        }
+    } else {
+        quote!()
+    };
+    let aliases = quote! {
+        #[doc = #params_doc]
+        pub type #params_alias = #sv<f64, #np>;
+        #[doc = #all_roots_doc]
+        pub type #all_roots_alias<'a> = dyn ::simhc::solver::AllRoots<#nx, #np> + 'a;
+        #subsystem_type
+    };
     let tokens = quote! {
         #[doc = #doc]
         #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -161,7 +201,24 @@ pub(super) fn instance(decl: &Declaration, lowered: &Lowered, expanded: &Expande
                 u.write_to(&mut buf);
                 #sv::<f64, #nx>::from(buf)
             }
+            /// Gauss-Newton on this instance's equations from `x0`
+            /// (`simhc::pipeline::path::gauss_newton` with this instance's sizes).
+            pub fn gauss_newton(
+                x0: &#sv<f64, #nx>,
+                p: &#sv<f64, #np>,
+                options: &::simhc::tracker::NewtonOptions,
+            ) -> ::core::result::Result<(#sv<f64, #nx>, ::simhc::tracker::TrackStats), ::simhc::tracker::TrackError> {
+                ::simhc::pipeline::path::gauss_newton::<Self, #nx, #nf, #np>(x0, p, options)
+            }
+            /// This instance's parameters from data of at least as many rows: its first rows
+            /// and the globals (`simhc::Layout::first_rows`); `None` when `p` is too short.
+            pub fn first_rows(p: &[f64]) -> ::core::option::Option<#sv<f64, #np>> {
+                <Self as ::simhc::ProblemLayout>::LAYOUT.first_rows::<#np>(p)
+            }
+            #square_subsystem
         }
+
+        #aliases
 
         impl ::simhc::ProblemInfo for #type_name {
             const NAME: &'static str = #problem_name;

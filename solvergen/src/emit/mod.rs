@@ -43,6 +43,22 @@ fn n(v: usize) -> Literal {
     Literal::usize_unsuffixed(v)
 }
 
+/// The names the expansion defines in the module: the instances, their size aliases and the
+/// module's own (a passthrough item of the same name is an error).
+pub fn emitted_names(decl: &Declaration) -> Vec<String> {
+    let base = camel(&decl.module.ident.to_string());
+    let mut names: Vec<String> = ["NX", "UnknownVector", "CanonicalFrame", "Refinement", "Unknowns", "Row", "Globals", "__SimhcRowKernels"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let suffixes: Vec<String> =
+        if decl.row_fields.is_empty() { vec![String::new()] } else { decl.rows.iter().map(|(r, _)| r.to_string()).collect() };
+    for s in suffixes {
+        names.extend([format!("{base}{s}"), format!("Params{s}"), format!("AllRoots{s}"), format!("SquareSubsystem{s}")]);
+    }
+    names
+}
+
 /// The whole generated module: the passthrough items, the plain-data structs, the row kernels
 /// shared by the instances and the items of every instance.
 pub fn module(decl: &Declaration, lowered: &Lowered) -> TokenStream {
@@ -92,10 +108,22 @@ pub fn module(decl: &Declaration, lowered: &Lowered) -> TokenStream {
             }
         }
     };
+    let nx = n(decl.unknowns.iter().map(|f| f.shape.scalar_count()).sum());
+    let sizes = quote! {
+        /// Number of unknown scalars (every instance's `NX`).
+        pub const NX: usize = #nx;
+        /// The unknowns as a vector, in layout order.
+        pub type UnknownVector = ::simhc::__private::nalgebra::SVector<f64, NX>;
+        /// A canonical frame of this problem's unknowns (`simhc::solver::CanonicalFrame`).
+        pub type CanonicalFrame = ::simhc::solver::CanonicalFrame<NX>;
+        /// What a refinement on all rows did (`simhc::solver::Refinement`).
+        pub type Refinement = ::simhc::solver::Refinement<NX>;
+    };
     quote! {
         #(#attrs)*
         #vis mod #ident {
             #(#passthrough)*
+            #sizes
             #unknowns
             #rows
             #globals

@@ -66,6 +66,36 @@ fn the_sampler_and_the_frame_change_keep_the_truth_a_solution() {
     }
 }
 
+/// The bootstrap without a rebuild: a start system read at run time is the solver's all-roots
+/// fallback (`InstanceSolver::with_fallback`, the commands' `--start-system`), not the one built
+/// in: with it the fallback alone solves, with a start system of no solutions it finds nothing.
+#[test]
+fn a_start_system_read_at_run_time_is_the_fallback() {
+    use simhc::solver::{AllRootsFallback, Solver};
+    let seed = 21;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let fallback = |json: &str| AllRootsFallback::new(Grp6::square_subsystem(Some(json), Some(64)).expect("parses"));
+    let full = Solver::new(GenRelPose::new()).expect("shipped").with_fallback(fallback(START_SYSTEM));
+    let mut empty = simhc::start_system::StartSystemFile::from_json(START_SYSTEM).expect("parses");
+    empty.solutions.clear();
+    empty.count = 0;
+    let none = Solver::new(GenRelPose::new()).expect("shipped").with_fallback(fallback(&empty.to_json()));
+    assert!(full.has_fallback() && none.has_fallback());
+    let mut solved = 0;
+    for trial in 0..6 {
+        let (p, x) = scene(&mut rng, 0.0);
+        // No attempt before the fallback: its candidates alone.
+        if let Ok(s) = full.run_pipeline(&p, &[], true, None) {
+            let [e_r, e_t] = errors(&s.x, &x);
+            assert!(e_r < 1e-4 && e_t < 1e-4, "trial {trial}: {e_r} deg, {e_t} %");
+            solved += 1;
+        }
+        assert!(none.run_pipeline(&p, &[], true, None).is_err(), "trial {trial}: the built-in start system was used");
+    }
+    assert!(solved >= 5, "{solved} of 6 solved by the fallback");
+}
+
 #[test]
 fn the_shipped_start_system_has_64_solutions_of_small_residual() {
     let file = simhc::start_system::StartSystemFile::from_json(START_SYSTEM).expect("parses");
@@ -118,6 +148,32 @@ fn bench_holds_on_the_sampler_in_random_frames_and_permuted() {
             assert_eq!(r.2, 0, "{r:?}");
         }
     }
+}
+
+/// `bench --start-system FILE` reads the start system at run time: the shipped file's All-roots
+/// row solves every trial, a file of no solutions none; a missing file is an error naming it.
+#[test]
+fn bench_reads_the_start_system_at_run_time() {
+    let dir = std::env::temp_dir().join(format!("grp-start-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let mut empty = simhc::start_system::StartSystemFile::from_json(START_SYSTEM).expect("parses");
+    empty.solutions.clear();
+    empty.count = 0;
+    let empty_path = dir.join("empty.json");
+    std::fs::write(&empty_path, empty.to_json()).expect("write");
+    let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/data/grp6_start.json");
+    for (file, expected) in [(shipped, 100.0), (empty_path.to_str().expect("utf-8"), 0.0)] {
+        let args = ["bench", "grp", "--trials", "4", "--seed", "5", "--all-roots", "4", "--json", "--start-system", file];
+        let (ok, out, err) = grp(&args);
+        assert!(ok, "{err}");
+        let doc: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+        let rows = doc["rows"].as_array().expect("rows");
+        let all_roots = rows.iter().find(|r| r["method"].as_str().is_some_and(|m| m.starts_with("All-roots"))).expect("All-roots row");
+        assert_eq!(all_roots["success_pct"].as_f64(), Some(expected), "{file}: {all_roots}");
+    }
+    let missing = dir.join("missing.json");
+    let (ok, _, err) = grp(&["bench", "grp", "--trials", "1", "--start-system", missing.to_str().expect("utf-8")]);
+    assert!(!ok && err.contains("missing.json"), "{err}");
 }
 
 fn input(p: &Params, replace: Option<(usize, &str)>) -> String {

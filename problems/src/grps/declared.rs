@@ -349,6 +349,10 @@ impl<const NP: usize> AllRoots<8, NP> for GrpsAllRoots {
     fn monodromy(&self, config: &MonodromyConfig) -> Result<MonodromyReport, StartSystemError> {
         run_monodromy_grps7(config)
     }
+    /// The generic square subsystem of the first 7 correspondences with that start system.
+    fn with_start_system(&self, json: &str) -> Result<Box<dyn AllRoots<8, NP> + Send + Sync>, StartSystemError> {
+        Ok(Box::new(Grps7::square_subsystem(Some(json), None)?))
+    }
 }
 
 /// The `DeclaredProblem` impl of `GrpsProblem<$rows>` on instance `$instance` (`$nf`

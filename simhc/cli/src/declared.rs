@@ -26,7 +26,7 @@ use simhc::layout::Layout;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
 use simhc::pipeline::{Attempt, Method, Origin, PipelineError};
 use simhc::solver::hypotheses::RankedStarts;
-use simhc::solver::{shipped_schedule, DeclaredProblem, LearnedHypotheses, RandomStart, SolveError, Solver};
+use simhc::solver::{shipped_schedule, AllRootsFallback, DeclaredProblem, LearnedHypotheses, RandomStart, SolveError, Solver};
 use simhc::ProblemLayout;
 #[cfg(feature = "train")]
 use simhc_regressor::generic::train_learned_start_with;
@@ -121,6 +121,10 @@ struct BenchArgs {
     /// Weights of the learned start (default: the problem's shipped weights).
     #[arg(long)]
     weights: Option<PathBuf>,
+    /// Start system of the all-roots fallback, a file made by `monodromy` (default: the
+    /// problem's built-in one): read at run time, no rebuild.
+    #[arg(long)]
+    start_system: Option<PathBuf>,
     /// Trials of the All-roots row (the first ones; 0: no row).
     #[arg(long, default_value_t = 100)]
     all_roots: usize,
@@ -141,6 +145,10 @@ struct SolveArgs {
     /// Weights of the learned start (default: the problem's shipped weights).
     #[arg(long)]
     weights: Option<PathBuf>,
+    /// Start system of the all-roots fallback, a file made by `monodromy` (default: the
+    /// problem's built-in one): read at run time, no rebuild.
+    #[arg(long)]
+    start_system: Option<PathBuf>,
 }
 
 /// Trials: the data's parameters and the true unknowns.
@@ -218,6 +226,24 @@ where
 
     fn solver(&self, weights: &Option<PathBuf>, noise: f64) -> Result<Solver<S, NX, NF, NP, NC, ND>, String> {
         Solver::with_shared(self.problem.clone(), &self.weights(weights)?, noise).map_err(|e| e.to_string())
+    }
+
+    /// [`Self::solver`] with the all-roots fallback of the start system file given, if one is.
+    fn solver_with(
+        &self,
+        weights: &Option<PathBuf>,
+        start_system: &Option<PathBuf>,
+        noise: f64,
+    ) -> Result<Solver<S, NX, NF, NP, NC, ND>, String> {
+        let solver = self.solver(weights, noise)?;
+        let Some(path) = start_system else { return Ok(solver) };
+        let json = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let roots = self
+            .problem
+            .all_roots()
+            .ok_or_else(|| format!("--start-system: {} has no square subsystem (DeclaredProblem::all_roots)", S::NAME))?;
+        let roots = roots.with_start_system(&json).map_err(|e| format!("{}: {e}", path.display()))?;
+        Ok(solver.with_fallback(AllRootsFallback(roots)))
     }
 
     #[cfg(feature = "train")]
@@ -323,10 +349,10 @@ where
             std::fs::write(path, serde_json::to_string(&file).map_err(|e| e.to_string())?)
                 .map_err(|e| format!("{}: {e}", path.display()))?;
         }
-        let solver = self.solver(&a.weights, a.noise)?;
+        let solver = self.solver_with(&a.weights, &a.start_system, a.noise)?;
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
         let has_refine = S::REFINES;
-        let has_fallback = self.problem.all_roots().is_some_and(|r| r.has_start_system());
+        let has_fallback = solver.has_fallback();
         let progress = !a.json;
         if progress {
             println!("{} bench: {} trials ({source}), single thread", S::NAME, trials.len());
@@ -432,7 +458,7 @@ where
         let text = std::fs::read_to_string(&a.input).map_err(|e| format!("{}: {e}", a.input.display()))?;
         let p = simhc::input::parse_layout_params(&layout, &text).map_err(|e| format!("{}: {e}", a.input.display()))?;
         let p = SVector::<f64, ND>::from_column_slice(&p);
-        let solver = self.solver(&a.weights, a.noise)?.certifying(simhc::solver::Certification::Report);
+        let solver = self.solver_with(&a.weights, &a.start_system, a.noise)?.certifying(simhc::solver::Certification::Report);
         let unknowns = |x: &SVector<f64, NX>| -> serde_json::Value {
             layout
                 .unknowns

@@ -32,8 +32,8 @@ use super::problem::DeclaredProblem;
 use super::restarts::{restart_provider, RestartStart, MAX_RESTARTS};
 use crate::certify::{certify_rows, choose_rows, Certificate, CertifyError};
 use crate::pipeline::{
-    Attempt, AttemptError, InputRows, LayoutOutputs, LayoutRows, LearnedStart, Method, Origin, OutputDecoding, Pipeline, PipelineError,
-    PipelineOptions, Solved, StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
+    Attempt, AttemptError, Fallback, InputRows, LayoutOutputs, LayoutRows, LearnedStart, Method, Origin, OutputDecoding, Pipeline,
+    PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
 };
 use crate::regressor::RegressorError;
 use crate::ProblemLayout;
@@ -330,7 +330,13 @@ where
     restarts: usize,
     /// Whether a solve certifies ([`InstanceSolver::certifying`]).
     certification: Certification,
+    /// The all-roots fallback given at run time ([`InstanceSolver::with_fallback`]), instead of
+    /// the problem's own.
+    fallback: Option<SharedFallback<D, NX, NP>>,
 }
+
+/// An all-roots fallback of the data `D`, shared by the threads of a solver.
+type SharedFallback<D, const NX: usize, const NP: usize> = Box<dyn Fallback<D, NX, NP> + Send + Sync>;
 
 /// A row-wise problem's solver: its data is the parameter vector of its data instance.
 pub type Solver<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> =
@@ -392,7 +398,22 @@ where
             options,
             restarts,
             certification: Certification::Off,
+            fallback: None,
         })
+    }
+
+    /// Whether a solve ends with an all-roots fallback: one given
+    /// ([`InstanceSolver::with_fallback`]) or the problem's own with its start system.
+    pub fn has_fallback(&self) -> bool {
+        self.fallback.is_some() || self.problem.has_fallback()
+    }
+
+    /// The same solver with `fallback` as its all-roots fallback instead of the problem's own:
+    /// for example a start system read at run time, after `monodromy` wrote it, without a
+    /// rebuild (`AllRootsFallback::new(Grp6::square_subsystem(Some(&json), None)?)`).
+    pub fn with_fallback(mut self, fallback: impl Fallback<D, NX, NP> + Send + Sync + 'static) -> Self {
+        self.fallback = Some(Box::new(fallback));
+        self
     }
 
     /// The same solver, certifying its solutions as `certification` says ([`Certification`]).
@@ -562,7 +583,9 @@ where
             .with_schedule(schedule)
             .with_other_simulators(others)
             .with_options(PipelineOptions { fallback, ..self.options });
-        if fallback && problem.has_fallback() {
+        if let (true, Some(given)) = (fallback, &self.fallback) {
+            pipeline = pipeline.with_fallback(&**given);
+        } else if fallback && problem.has_fallback() {
             pipeline = pipeline.with_fallback(&all_roots);
         }
         Ok(run(&pipeline, &OwnCanon::<S, NF, NP, NC>(problem)))

@@ -38,4 +38,4 @@ pub use library::{
 pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, GivenStart, RandomStart};
 pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement};
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
-pub use subsystem::{AllRoots, SquareSubsystem};
+pub use subsystem::{AllRoots, AllRootsFallback, SquareSubsystem};

@@ -5,6 +5,7 @@
 use crate::all_roots::{solve_all_fast, AllRootsOptions, StartSystem};
 use crate::layout::{FieldKind, Layout};
 use crate::monodromy::SignFlip;
+use crate::pipeline::Fallback;
 use crate::start_system::{run_monodromy, MonodromyConfig, MonodromyReport, StartSystemError, StartSystemFile};
 use crate::{CoefficientForm, ParamDerivative, ProblemInfo, ProblemLayout};
 use nalgebra::SVector;
@@ -19,6 +20,28 @@ pub trait AllRoots<const NX: usize, const NP: usize> {
     fn has_start_system(&self) -> bool;
     /// Finds all solutions of a generic complex instance by monodromy.
     fn monodromy(&self, config: &MonodromyConfig) -> Result<MonodromyReport, StartSystemError>;
+    /// The same subsystem with the start system of a `monodromy` JSON file read at run time
+    /// (instead of the one built in), for [`super::InstanceSolver::with_fallback`] and the
+    /// commands' `--start-system`.
+    fn with_start_system(&self, json: &str) -> Result<Box<dyn AllRoots<NX, NP> + Send + Sync>, StartSystemError>;
+}
+
+/// The all-roots fallback of row-wise data over an [`AllRoots`] (a [`SquareSubsystem`], say,
+/// with a start system read at run time): [`super::InstanceSolver::with_fallback`].
+pub struct AllRootsFallback<const NX: usize, const ND: usize>(pub Box<dyn AllRoots<NX, ND> + Send + Sync>);
+
+impl<const NX: usize, const ND: usize> AllRootsFallback<NX, ND> {
+    /// The fallback over `all_roots`.
+    pub fn new(all_roots: impl AllRoots<NX, ND> + Send + Sync + 'static) -> Self {
+        Self(Box::new(all_roots))
+    }
+}
+
+impl<const NX: usize, const ND: usize, const NP: usize> Fallback<SVector<f64, ND>, NX, NP> for AllRootsFallback<NX, ND> {
+    /// The subsystem's roots of the data (as the problem's own fallback solves them).
+    fn candidates(&self, data: &SVector<f64, ND>, _p: &SVector<f64, NP>) -> Vec<SVector<f64, NX>> {
+        self.0.candidates(data)
+    }
 }
 
 /// The square subsystem `Q` of a problem: its first `Q::LAYOUT.rows` rows and the global
@@ -51,7 +74,7 @@ fn quaternion_symmetry(layout: &Layout) -> Option<SignFlip> {
 
 impl<Q, const NX: usize, const NQ: usize, const NCQ: usize, const NP: usize> AllRoots<NX, NP> for SquareSubsystem<Q, NX, NQ, NCQ>
 where
-    Q: CoefficientForm<NX, NX, NQ, NCQ> + ParamDerivative<NX, NX, NQ> + ProblemLayout + ProblemInfo,
+    Q: CoefficientForm<NX, NX, NQ, NCQ> + ParamDerivative<NX, NX, NQ> + ProblemLayout + ProblemInfo + 'static,
 {
     fn candidates(&self, p: &SVector<f64, NP>) -> Vec<SVector<f64, NX>> {
         let Some(start) = &self.start else { return Vec::new() };
@@ -75,5 +98,11 @@ where
             Q::NAME
         );
         run_monodromy::<Q, NX, NQ>(config, quaternion_symmetry(&layout), &description, self.expected)
+    }
+
+    fn with_start_system(&self, json: &str) -> Result<Box<dyn AllRoots<NX, NP> + Send + Sync>, StartSystemError> {
+        let mut other = Self::new(Some(json), self.expected)?;
+        other.options = self.options;
+        Ok(Box::new(other))
     }
 }

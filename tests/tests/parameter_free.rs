@@ -218,3 +218,19 @@ fn random_starts_no_longer_fail_before_tracking() {
     assert_eq!(simulator_failures, 0);
     assert!(tracked * 2 > trials, "{tracked} of {trials}");
 }
+
+/// A random start puts no free unknown at 0 (a degenerate start for a scale or a focal length):
+/// `b` of `curve` is uniform in [-1, 1]; `a`, whose norm an equation fixes, lies on its circle.
+#[test]
+fn random_starts_draw_free_unknowns_of_order_one() {
+    let seed = 3;
+    println!("seed {seed}");
+    let random = RandomStart::new(curve::Curve::LAYOUT, seed);
+    let draws: Vec<SVector<f64, 3>> = (0..200).map(|_| StartProvider::<(), 3>::start(&random, &()).unwrap()).collect();
+    for x in &draws {
+        assert!((x.fixed_rows::<2>(0).norm() - 2.0).abs() < 1e-12, "`a` on its circle: {x}");
+        assert!(x[2].abs() <= 1.0 && x[2] != 0.0, "`b` in [-1, 1] and not 0: {x}");
+    }
+    let (low, high) = (draws.iter().filter(|x| x[2] < -0.5).count(), draws.iter().filter(|x| x[2] > 0.5).count());
+    assert!(low > 20 && high > 20, "`b` spread over [-1, 1]: {low} below -0.5, {high} above 0.5");
+}

@@ -113,9 +113,11 @@ impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for GivenStart<NX> {
     }
 }
 
-/// A random start for any layout: a uniformly random unit quaternion for each quaternion
-/// unknown, a random direction for each field whose norm an equation fixes, zero for the others
-/// (the paper's "Rand" rows).
+/// A random start for any layout (the paper's "Rand" rows): a uniformly random unit quaternion
+/// for each quaternion unknown, a random direction for each field whose norm an equation fixes,
+/// and uniform in `[-1, 1]` for every other scalar: data scaled to order 1 (the README) has its
+/// unknowns of order 1. Zero, as before 2026-12-05, is a degenerate start for a free scale or
+/// focal length (a 0 that multiplies every equation's data term).
 pub struct RandomStart {
     layout: Layout,
     rng: RefCell<ChaCha8Rng>,
@@ -139,13 +141,10 @@ impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for RandomStart {
             let q = crate::metrics::random_unit_quaternion(&mut *rng);
             x.as_mut_slice()[f.offset..f.offset + 4].copy_from_slice(&q);
         }
-        // A field whose norm an equation fixes (`t.dot(t) - 1`): a random direction on its
-        // sphere, since zero cannot be normalized.
-        for n in self.layout.norms {
-            let f = &self.layout.unknowns[n.field];
-            if f.kind != FieldKind::Quat {
-                x.as_mut_slice()[f.offset..f.offset + f.kind.len()].iter_mut().for_each(|v| *v = rng.random_range(-1.0..1.0));
-            }
+        // Every other field uniform in [-1, 1]; one whose norm an equation fixes (`t.dot(t) - 1`)
+        // is then normalized onto its sphere, a random direction.
+        for f in self.layout.unknowns.iter().filter(|f| f.kind != FieldKind::Quat) {
+            x.as_mut_slice()[f.offset..f.offset + f.kind.len()].iter_mut().for_each(|v| *v = rng.random_range(-1.0..1.0));
         }
         if !self.layout.normalize_unknowns(x.as_mut_slice()) {
             return Err(StartError { provider: "random", reason: "a random field of zero norm".into() });

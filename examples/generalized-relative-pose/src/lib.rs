@@ -68,12 +68,6 @@ impl GenRelPose {
     }
 }
 
-impl Default for GenRelPose {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
 fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
     let u2: f64 = rng.random();
@@ -227,17 +221,6 @@ impl Coplanarity {
     }
 }
 
-/// The angle (radians) between the rig-1 bearing `f` and the plane of its match's ray and the
-/// baseline: the correspondence's error under the pose `(r, t)`.
-fn plane_angle(r: &Matrix3<f64>, t: &Vector3<f64>, [f, v, fp, vp]: &[Vector3<f64>; 4]) -> f64 {
-    let n = (r * fp).cross(&(r * vp + t - v));
-    if n.norm() > 0.0 {
-        (f.dot(&n) / n.norm()).abs().asin()
-    } else {
-        0.0
-    }
-}
-
 /// The Sampson error of a correspondence under `(r, t)`, as an angle: the coplanarity residual
 /// `a = f . n` (`n = R fp x (R vp + t - v)`) over its first-order standard deviation when both
 /// bearings carry isotropic angular noise, `sqrt(|P_f grad_f a|^2 + |P_fp grad_fp a|^2)` with
@@ -273,7 +256,9 @@ impl Validator<Params, { grp::NX }> for Coplanarity {
         for i in 0..7 {
             let [f, v, fp, vp] = row(p, i);
             let (g, c2) = (r * fp, r * vp + t);
-            let angle = plane_angle(&r, &t, &[f, v, fp, vp]);
+            // The angle of `f` to the plane of its match's ray and the baseline.
+            let n = g.cross(&(c2 - v));
+            let angle = if n.norm() > 0.0 { (f.dot(&n) / n.norm()).abs().asin() } else { 0.0 };
             // Closest points of the two rays: v + lambda f and c2 + mu g.
             let (b, w) = (f.dot(&g), v - c2);
             let denom = 1.0 - b * b;
@@ -365,18 +350,10 @@ impl DeclaredProblem for GenRelPose {
         Some((rows, Vec::new(), x))
     }
     /// The robust estimator's error: the Sampson error of the coplanarity equation, as an
-    /// angle (radians) when both bearings carry angular noise (`sampson_angle`).
+    /// angle (radians) when both bearings carry angular noise (`sampson_angle`). The estimator
+    /// hands rows of the layout's 12 numbers and counts NaN as an outlier.
     fn row_error(&self, x: &Unknowns, row: &[f64], _globals: &[f64]) -> f64 {
-        if row.len() != 12 {
-            return f64::INFINITY;
-        }
         let (r, t) = pose(x);
-        let fields = std::array::from_fn(|k| Vector3::new(row[3 * k], row[3 * k + 1], row[3 * k + 2]));
-        let e = sampson_angle(&r, &t, &fields);
-        if e.is_nan() {
-            f64::INFINITY
-        } else {
-            e
-        }
+        sampson_angle(&r, &t, &std::array::from_fn(|k| Vector3::from_column_slice(&row[3 * k..3 * k + 3])))
     }
 }

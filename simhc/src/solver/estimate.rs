@@ -266,7 +266,7 @@ where
     }
 
     fn residual(&self, x: &SVector<f64, NX>, row: &&'a [f64]) -> f64 {
-        self.solver.problem().row_error(x, row, self.globals)
+        self.row_error(x, row)
     }
 
     /// Gauss-Newton with a Cauchy loss on the inliers' errors ([`DeclaredProblem::row_error`],
@@ -274,12 +274,11 @@ where
     /// parameters, each step halved until the robust cost falls.
     fn refine(&self, x0: &SVector<f64, NX>, data: &[&'a [f64]], inliers: &[usize]) -> Option<SVector<f64, NX>> {
         let c2 = self.threshold * self.threshold;
-        let problem = self.solver.problem();
         let cost = |x: &SVector<f64, NX>| -> f64 {
             inliers
                 .iter()
                 .map(|&i| {
-                    let e = problem.row_error(x, data[i], self.globals);
+                    let e = self.row_error(x, data[i]);
                     (1.0 + e * e / c2).ln()
                 })
                 .sum()
@@ -339,6 +338,17 @@ impl<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, 
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
+    /// The problem's error of `row` at `x` ([`DeclaredProblem::row_error`]), NaN counted as
+    /// infinite: a row no model explains is an outlier, and a robust cost stays ordered.
+    fn row_error(&self, x: &SVector<f64, NX>, row: &[f64]) -> f64 {
+        let e = self.solver.problem().row_error(x, row, self.globals);
+        if e.is_nan() {
+            f64::INFINITY
+        } else {
+            e
+        }
+    }
+
     /// The data instance of the rows `indices` (as many as the instance has) and the globals:
     /// a sample, or the inliers a model is certified on.
     fn instance(&self, data: &[&[f64]], indices: impl Iterator<Item = usize>) -> SVector<f64, ND> {
@@ -364,8 +374,7 @@ where
     /// evaluating it again (the second-order term at a step of [`DIFFERENCE_STEP`] matters only
     /// for an equation within about `1e-14` of zero, where the error itself is that small).
     fn signed_error_gradient(&self, x: &SVector<f64, NX>, row: &[f64]) -> Option<(f64, SVector<f64, NX>)> {
-        let problem = self.solver.problem();
-        let size = problem.row_error(x, row, self.globals);
+        let size = self.row_error(x, row);
         let (mut f, mut j) = (SVector::<f64, NF>::zeros(), SMatrix::<f64, NF, NX>::zeros());
         let epr = row_equations::<S::Tracked, NX, NF, NP, NC>(x, row, self.globals, &mut f, &mut j)?;
         let k = (0..epr).max_by(|a, b| f[*a].abs().total_cmp(&f[*b].abs()))?;
@@ -379,7 +388,7 @@ where
             let step = DIFFERENCE_STEP * (1.0 + x[m].abs());
             let mut moved = *x;
             moved[m] += step;
-            let error = problem.row_error(&moved, row, self.globals);
+            let error = self.row_error(&moved, row);
             grad[m] = (signed(f[k] + j[(k, m)] * step, error) - e) / step;
         }
         grad.iter().all(|g| g.is_finite()).then_some((e, grad))

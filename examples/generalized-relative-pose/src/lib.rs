@@ -68,6 +68,12 @@ impl GenRelPose {
     }
 }
 
+impl Default for GenRelPose {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
     let u2: f64 = rng.random();

@@ -12,7 +12,7 @@ use counting_alloc::counted;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Attempt, Method, Origin};
-use simhc::solver::hypotheses::other_provider;
+use simhc::solver::other_provider;
 use simhc::solver::{sample_schedule, DeclaredProblem, LearnedHypotheses, Solver};
 use simhc_problems::grps::declared::Grps8Problem;
 use simhc_problems::grps::learned::GrpsNetwork;

@@ -275,7 +275,7 @@ fn the_estimator_finds_the_inliers_of_grps8() {
 /// 65 with Gauss-Newton after every other attempt.
 #[test]
 fn a_restart_turns_the_prediction_and_resolves_translation_and_scale() {
-    use simhc::solver::restarts::restart_provider;
+    use simhc::solver::restart_provider;
     use simhc::solver::{restart_rotation, MAX_RESTARTS};
     use simhc_problems::grps::declared::GRPS_RESTART_ANGLES_DEG;
     let seed = 21;

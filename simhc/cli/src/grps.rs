@@ -10,8 +10,7 @@ use serde::Serialize;
 use simhc::all_roots::AllRootsOptions;
 use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartError, StartProvider};
 use simhc::ransac::RansacOptions;
-use simhc::solver::hypotheses::{other_provider, provider};
-use simhc::solver::restarts::restart_provider;
+use simhc::solver::{other_provider, provider, restart_provider};
 use simhc::solver::{DeclaredProblem, FirstRowsError, LearnedHypotheses, SolveError, Solver};
 use simhc_problems::grps::declared::{
     grps_pipeline_options, params_of, Grps7Problem, GrpsSolvers, GrpsSolversError, RANSAC_NOISE_PX, RESTARTS, SAMPLE_ATTEMPTS,

@@ -7,7 +7,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartProvider};
-use simhc::solver::hypotheses::other_provider;
+use simhc::solver::other_provider;
 use simhc::solver::{FirstRowsError, GivenStart, LearnedHypotheses, SolveError as LibraryError};
 use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, translation_error_pct};
 use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};

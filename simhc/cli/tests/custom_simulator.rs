@@ -10,9 +10,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::PipelineError;
 use simhc::pipeline::{Attempt, Method, Origin, StartError, StartProvider, StartSimulator};
-use simhc::solver::{
-    restarts::restart_provider, DeclaredProblem, OtherSimulator, OtherStart, Solver, SolverError, MAX_OTHERS, MAX_RESTARTS,
-};
+use simhc::solver::{restart_provider, DeclaredProblem, OtherSimulator, OtherStart, Solver, SolverError, MAX_OTHERS, MAX_RESTARTS};
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
 use simhc_cli::{App, Declared};
 use std::sync::atomic::{AtomicUsize, Ordering};

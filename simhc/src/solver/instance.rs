@@ -12,10 +12,10 @@
 //! The items are named apart from [`DeclaredProblem`]'s, so that a type implementing both
 //! never has an ambiguous `NAME` or `validator`.
 
-use super::hypotheses::RankedStarts;
-use super::library::{ProblemOutputs, ProblemRows, SolverStart};
+use super::hypotheses::{LearnedHypotheses, Ranked, RankedStarts};
 use super::parts::{Canon, FirstRows, FirstRowsError};
 use super::problem::{CanonicalFrame, DeclaredProblem, Refinement};
+use super::rows::{ProblemOutputs, ProblemRows, SolverStart};
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{
     Canonicalize, Fallback, Generic, LearnedStart, PipelineOptions, StartError, StartProvider, StartSimulator, TargetParameters, Validator,
@@ -75,7 +75,7 @@ pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, con
         PipelineOptions::default()
     }
     /// Whether the other starts' attempts come before the learned start's
-    /// ([`super::hypotheses::other_starts_first`]). Default `false`.
+    /// ([`super::schedule::other_starts_first`]). Default `false`.
     fn other_starts_first(&self) -> bool {
         false
     }
@@ -116,32 +116,6 @@ pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn fallback_candidates(&self, _data: &D, _p: &SVector<f64, NP>) -> Vec<SVector<f64, NX>> {
         Vec::new()
     }
-}
-
-/// A learned start's hypotheses on one datum, best first.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ranked<const NX: usize> {
-    /// The hypotheses; the first `count` are set.
-    pub x: [SVector<f64, NX>; MAX_HYPOTHESES],
-    /// How many there are.
-    pub count: usize,
-}
-
-impl<const NX: usize> Ranked<NX> {
-    /// One hypothesis.
-    pub fn one(x: SVector<f64, NX>) -> Self {
-        let mut r = Self { x: [SVector::zeros(); MAX_HYPOTHESES], count: 1 };
-        r.x[0] = x;
-        r
-    }
-}
-
-/// A learned start: up to [`MAX_HYPOTHESES`] guesses of the unknowns from one forward pass.
-pub trait LearnedHypotheses<D: ?Sized, const NX: usize> {
-    /// How many hypotheses a forward pass makes.
-    fn hypotheses(&self) -> usize;
-    /// The hypotheses for `data`, best first.
-    fn rank(&self, data: &D) -> Result<Ranked<NX>, StartError>;
 }
 
 /// The learned start of a row-wise problem: its input rows and outputs
@@ -294,7 +268,7 @@ where
 /// repeats a tracked row validates nothing (a RANSAC sample that draws one correspondence
 /// twice would be accepted on a pose fitted to fewer rows). Every row-wise problem rejects it,
 /// naming the later row. `layout.rows` is small (a data instance), so the pairs are few.
-fn repeated_row(layout: &crate::layout::Layout, p: &[f64]) -> Result<(), super::parts::DegenerateInput> {
+fn repeated_row(layout: &crate::layout::Layout, p: &[f64]) -> Result<(), super::problem::DegenerateInput> {
     let per_row = layout.per_row;
     if per_row == 0 {
         return Ok(());
@@ -302,7 +276,7 @@ fn repeated_row(layout: &crate::layout::Layout, p: &[f64]) -> Result<(), super::
     let row = |i: usize| &p[i * per_row..(i + 1) * per_row];
     for j in 1..layout.rows {
         if (0..j).any(|i| row(i) == row(j)) {
-            return Err(super::parts::DegenerateInput {
+            return Err(super::problem::DegenerateInput {
                 row: Some(j),
                 reason: "the same numbers as an earlier row (a repeated correspondence adds no equation)",
             });

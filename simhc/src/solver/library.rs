@@ -3,7 +3,7 @@
 //! problem is), or [`InstanceSolver::solve_batch`] across cores. The `solve` command is this
 //! solver reading one file. [`InstanceSolver`] takes any [`InstanceProblem`] (UPnP's data is
 //! a list of correspondences of any length); [`Solver`] is its name for a row-wise
-//! [`DeclaredProblem`], whose data is a parameter vector.
+//! [`super::DeclaredProblem`], whose data is a parameter vector.
 //!
 //! ```ignore
 //! let solver = simhc::solver::Solver::new(GenRelPose::new())?;        // shipped weights, noise 0
@@ -14,134 +14,34 @@
 //! ```
 //!
 //! A solve checks the data ([`InstanceProblem::check_data`]; a row-wise problem's NaN check
-//! and [`DeclaredProblem::check_input`]), then runs its schedule in the problem's canonical
+//! and [`super::DeclaredProblem::check_input`]), then runs its schedule in the problem's canonical
 //! frame ([`InstanceSolver::schedule`]: the shipped attempts on the learned start's
 //! hypotheses, the problem's other starts and simulators, its restarts), then the all-roots
 //! fallback when the problem has one; only an end point that the problem's
 //! validator accepts on all the data comes back as `Ok`. A solve makes no heap allocation
 //! short of the all-roots fallback (which returns a `Vec`), validated or flagged, when the
-//! problem's own hooks do not allocate: a [`DeclaredProblem::canonicalize`] frame holds its
+//! problem's own hooks do not allocate: a [`super::DeclaredProblem::canonicalize`] frame holds its
 //! maps inline ([`super::CanonicalFrame::new`]), and a start that fails with a fixed message
 //! allocates nothing. Of the built-ins, UPnP's simulator allocates its reprojected
 //! correspondences, and its learned start its rows beyond 32 correspondences.
 
-use super::hypotheses::{other_provider, other_starts_first, provider, provider_count, solver_schedule, RankedStart, RankedStarts};
-use super::instance::{InstanceProblem, LearnedHypotheses, OwnCanon, OwnFallback, OwnSimulator, Parts, RefinedStart};
+use super::hypotheses::{LearnedHypotheses, RankedStart, RankedStarts};
+use super::instance::{InstanceProblem, OwnCanon, OwnFallback, OwnSimulator, Parts, RefinedStart};
 use super::parts::FirstRowsError;
-use super::problem::DeclaredProblem;
-use super::restarts::{restart_provider, RestartStart, MAX_RESTARTS};
+use super::restarts::{RestartStart, MAX_RESTARTS};
+use super::schedule::{other_provider, other_starts_first, provider, provider_count, restart_provider, shipped_schedule, solver_schedule};
 use crate::certify::{certify_rows, choose_rows, Certificate, CertifyError};
 use crate::pipeline::{
-    Attempt, AttemptError, Fallback, InputRows, LayoutOutputs, LayoutRows, LearnedStart, Method, Origin, OutputDecoding, Pipeline,
-    PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator, Validator, MAX_HYPOTHESES,
+    Attempt, AttemptError, Fallback, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator,
+    Validator, MAX_HYPOTHESES,
 };
 use crate::regressor::RegressorError;
-use crate::ProblemLayout;
 use nalgebra::SVector;
 use rayon::prelude::*;
 use std::borrow::Borrow;
 use std::fmt::Debug;
-use std::marker::PhantomData;
 use std::sync::Arc;
 use thiserror::Error;
-
-/// The attempts of a shipped solve, over the start providers `[learned, learned refined on all
-/// rows]`: with a refine hook ([`DeclaredProblem::REFINES`]), its least-squares point on all
-/// rows as it is, then Gauss-Newton on the tracked rows from it (with noise the first validates
-/// more often: the tracked rows' exact root carries their noise to the other rows); without
-/// one, Gauss-Newton on the tracked rows from the learned start; last, one Simulator HC path
-/// from the learned start. The fallback comes after them.
-pub fn shipped_schedule(refines: bool) -> &'static [Attempt] {
-    const SIMULATOR_HC: Attempt = Attempt { provider: 0, method: Method::SimulatorHc };
-    const REFINED: [Attempt; 3] =
-        [Attempt { provider: 1, method: Method::Start }, Attempt { provider: 1, method: Method::GaussNewton }, SIMULATOR_HC];
-    const PLAIN: [Attempt; 2] = [Attempt { provider: 0, method: Method::GaussNewton }, SIMULATOR_HC];
-    if refines {
-        &REFINED
-    } else {
-        &PLAIN
-    }
-}
-
-/// The attempts on a RANSAC sample: the first of [`shipped_schedule`] only (Gauss-Newton from
-/// the learned start, on all rows where the problem refines): most samples hold an outlier and
-/// no attempt validates them, and among the many samples one that is all inliers and in the
-/// basin comes soon, so a sample that does not validate at once is dropped.
-pub fn sample_schedule(refines: bool) -> &'static [Attempt] {
-    &shipped_schedule(refines)[..1]
-}
-
-/// A problem's learned-start input rows: its own ([`DeclaredProblem::input_rows`]) or its data
-/// layout's. Shares the problem, so a solver that holds it is `Send + Sync` when the problem is.
-pub struct ProblemRows<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
-    problem: Arc<S>,
-    sizes: PhantomData<fn() -> [(); NX]>,
-}
-
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> ProblemRows<S, NX, NF, NP, NC, ND>
-where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-{
-    /// The rows of `problem`.
-    pub fn new(problem: Arc<S>) -> Self {
-        Self { problem, sizes: PhantomData }
-    }
-}
-
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> InputRows
-    for ProblemRows<S, NX, NF, NP, NC, ND>
-where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-{
-    fn shape(&self) -> (usize, usize) {
-        match self.problem.input_rows() {
-            Some(rows) => rows.shape(),
-            None => LayoutRows(S::Data::LAYOUT).shape(),
-        }
-    }
-    fn write(&self, p: &[f64], out: &mut [f32]) -> bool {
-        match self.problem.input_rows() {
-            Some(rows) => rows.write(p, out),
-            None => LayoutRows(S::Data::LAYOUT).write(p, out),
-        }
-    }
-}
-
-/// A problem's learned-start output decoding: its own ([`DeclaredProblem::outputs`]) or the
-/// unknowns of its data layout. Shares the problem, as [`ProblemRows`].
-pub struct ProblemOutputs<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> {
-    problem: Arc<S>,
-    sizes: PhantomData<fn() -> [(); NX]>,
-}
-
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> ProblemOutputs<S, NX, NF, NP, NC, ND>
-where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-{
-    /// The output decoding of `problem`.
-    pub fn new(problem: Arc<S>) -> Self {
-        Self { problem, sizes: PhantomData }
-    }
-}
-
-impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> OutputDecoding
-    for ProblemOutputs<S, NX, NF, NP, NC, ND>
-where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-{
-    fn width(&self) -> usize {
-        match self.problem.outputs() {
-            Some(outputs) => outputs.width(),
-            None => LayoutOutputs(S::Data::LAYOUT).width(),
-        }
-    }
-    fn decode(&self, out: &[f64], x: &mut [f64]) -> bool {
-        match self.problem.outputs() {
-            Some(outputs) => outputs.decode(out, x),
-            None => LayoutOutputs(S::Data::LAYOUT).decode(out, x),
-        }
-    }
-}
 
 /// A validated solution.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -248,7 +148,7 @@ impl std::fmt::Display for StartId {
 }
 
 /// Most other starts, and most other simulators, a problem may bring
-/// ([`DeclaredProblem::other_starts`], [`DeclaredProblem::other_simulators`]): a solve holds
+/// ([`super::DeclaredProblem::other_starts`], [`super::DeclaredProblem::other_simulators`]): a solve holds
 /// them in fixed arrays, without allocation.
 pub const MAX_OTHERS: usize = 8;
 
@@ -274,10 +174,6 @@ pub enum SolverError {
     #[error("weights: {0}")]
     Weights(#[from] RegressorError),
 }
-
-/// The learned start of a row-wise solver.
-pub type SolverStart<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> =
-    LearnedStart<ProblemRows<S, NX, NF, NP, NC, ND>, ProblemOutputs<S, NX, NF, NP, NC, ND>>;
 
 /// The check of a validator `V` of the data `D`.
 pub type CheckOf<V, const NX: usize, D> = <V as Validator<D, NX>>::Check;
@@ -453,8 +349,8 @@ where
     /// The attempts of [`InstanceSolver::solve`]: [`shipped_schedule`] over the learned start's
     /// ranked hypotheses, the problem's other starts and simulators and its restarts, every
     /// start's Gauss-Newton before the first path ([`solver_schedule`]; the providers are laid
-    /// out as [`super::hypotheses::provider`], [`super::hypotheses::other_provider`] and
-    /// [`super::restarts::restart_provider`] say).
+    /// out as [`super::schedule::provider`], [`super::schedule::other_provider`] and
+    /// [`super::schedule::restart_provider`] say).
     pub fn schedule(&self) -> &[Attempt] {
         &self.schedule
     }
@@ -467,17 +363,17 @@ where
         if provider == 2 {
             return StartId::Given;
         }
-        if let Some(rank) = (0..count).find(|&r| super::hypotheses::provider(r, false) == provider) {
+        if let Some(rank) = (0..count).find(|&r| super::schedule::provider(r, false) == provider) {
             return StartId::Learned { rank, refined: false };
         }
-        if let Some(rank) = (0..count).find(|&r| super::hypotheses::provider(r, true) == provider) {
+        if let Some(rank) = (0..count).find(|&r| super::schedule::provider(r, true) == provider) {
             return StartId::Learned { rank, refined: true };
         }
-        let first_other = super::hypotheses::other_provider(count, 0);
+        let first_other = other_provider(count, 0);
         if (first_other..first_other + others).contains(&provider) {
             return StartId::Other(provider - first_other);
         }
-        StartId::Restart(provider.saturating_sub(super::restarts::restart_provider(count, others, 0)))
+        StartId::Restart(provider.saturating_sub(restart_provider(count, others, 0)))
     }
 
     /// Solves the data (all rows, the data layout's order for a row-wise problem): a validated
@@ -500,9 +396,9 @@ where
     }
 
     /// The pipeline's own result of a solve with these attempts over the providers of
-    /// [`super::hypotheses::provider`], `extra` in slot 2 (the bench's random start), the
-    /// problem's other starts at [`super::hypotheses::other_provider`] and its restarts at
-    /// [`super::restarts::restart_provider`], with or without the all-roots fallback: what the
+    /// [`super::schedule::provider`], `extra` in slot 2 (the bench's random start), the
+    /// problem's other starts at [`super::schedule::other_provider`] and its restarts at
+    /// [`super::schedule::restart_provider`], with or without the all-roots fallback: what the
     /// bench tallies.
     pub fn run_pipeline(
         &self,

@@ -9,15 +9,20 @@
 //! [`crate::start_system`] for its start system) live here too, so a problem library depends
 //! on the runtime only.
 //!
-//! - [`problem`]: the trait and its hook types;
-//! - [`parts`]: the parts a solve is assembled from (tracked parameters, random and refined
-//!   starts, the canonical frame);
+//! The modules stack from the ground up, each importing only those above it in this list:
+//!
 //! - [`subsystem`]: all roots of a square subsystem;
+//! - [`residual`]: a row's equations and the default per-correspondence error;
+//! - [`schedule`]: what a solve tries in which order, over the slots of its start providers;
+//! - [`problem`]: the trait and its hook types;
+//! - [`parts`]: the parts a solve is assembled from (tracked parameters, random and given
+//!   starts, the canonical frame);
+//! - [`rows`]: a row-wise problem's learned-start rows and outputs;
+//! - [`hypotheses`]: a learned start's several hypotheses, ranked on the data;
 //! - [`instance`]: what a solver needs of a problem, for data of any type
 //!   ([`InstanceProblem`]), and the blanket impl for every [`DeclaredProblem`];
-//! - [`hypotheses`]: a learned start's several hypotheses, ranked on the data;
-//! - [`library`]: the solver, [`Solver`];
 //! - [`restarts`]: restarts around the learned start, before the fallback;
+//! - [`library`]: the solver, [`Solver`];
 //! - [`estimate`]: the robust estimator, [`Solver::estimate`].
 
 pub mod estimate;
@@ -26,16 +31,22 @@ pub mod instance;
 pub mod library;
 pub mod parts;
 pub mod problem;
+pub mod residual;
 pub mod restarts;
+pub mod rows;
+pub mod schedule;
 pub mod subsystem;
 
-pub use estimate::{row_residual, EstimateError, EstimateInfo};
-pub use instance::{InstanceProblem, LearnedHypotheses, Ranked, RowwiseLearned};
+pub use estimate::{EstimateError, EstimateInfo};
+pub use hypotheses::{LearnedHypotheses, Ranked};
+pub use instance::{InstanceProblem, RowwiseLearned};
 pub use library::{
-    sample_schedule, shipped_schedule, Certification, InstanceOutcome, InstanceSolver, Outcome, ProblemOutputs, ProblemRows, Solution,
-    SolveError, Solver, SolverError, StartId, MAX_OTHERS,
+    Certification, InstanceOutcome, InstanceSolver, Outcome, Solution, SolveError, Solver, SolverError, StartId, MAX_OTHERS,
 };
-pub use parts::{Canon, DegenerateInput, FirstRows, FirstRowsError, GivenStart, RandomStart};
-pub use problem::{CanonicalFrame, DeclaredProblem, OtherSimulator, OtherStart, Refinement};
+pub use parts::{Canon, FirstRows, FirstRowsError, GivenStart, RandomStart};
+pub use problem::{CanonicalFrame, DeclaredProblem, DegenerateInput, OtherSimulator, OtherStart, Refinement};
+pub use residual::row_residual;
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
+pub use rows::{ProblemOutputs, ProblemRows};
+pub use schedule::{other_provider, provider, restart_provider, sample_schedule, shipped_schedule};
 pub use subsystem::{AllRoots, AllRootsFallback, SquareSubsystem};

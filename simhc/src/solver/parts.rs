@@ -3,7 +3,7 @@
 //! pipeline's ([`Canon`]); the learned start refined on all rows is
 //! [`super::instance::RefinedStart`].
 
-use super::problem::{CanonicalFrame, DeclaredProblem};
+use super::problem::{CanonicalFrame, DeclaredProblem, DegenerateInput};
 use crate::layout::{FieldKind, Layout};
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{Canonicalize, StartError, StartProvider, TargetParameters};
@@ -50,18 +50,6 @@ impl<Q: ProblemLayout> Default for FirstRows<Q> {
     fn default() -> Self {
         Self::new()
     }
-}
-
-/// Data that no solve can use ([`DeclaredProblem::check_input`]): where and why. Plain data,
-/// so that a check allocates nothing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[error("{}{reason}", match row { Some(r) => format!("row {r}: "), None => String::new() })]
-pub struct DegenerateInput {
-    /// The row (correspondence) at fault, `None` when the rows together are (all rays from one
-    /// origin, all points on a line).
-    pub row: Option<usize>,
-    /// What is wrong, and what it makes unobservable.
-    pub reason: &'static str,
 }
 
 /// Why [`FirstRows`] cannot make the tracked parameters, or the data is not a problem instance.

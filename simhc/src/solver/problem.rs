@@ -4,7 +4,6 @@
 //! fallback, a per-correspondence error). [`super::Solver`] assembles a solve from it; the
 //! `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same trait.
 
-use super::parts::DegenerateInput;
 use super::subsystem::AllRoots;
 use crate::pipeline::{InputRows, OutputDecoding, PipelineOptions, StartProvider, StartSimulator, Validator};
 use crate::training::LearnedStartConfig;
@@ -191,10 +190,10 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// The error of one correspondence under `x`, which the robust estimator
     /// ([`super::Solver::estimate`]) compares with its threshold: `row` holds the row's numbers
     /// in the layout's order, `globals` the global ones. Default: the largest absolute residual
-    /// of the row's equations ([`super::estimate::row_residual`]); a geometric error (angular,
+    /// of the row's equations ([`super::residual::row_residual`]); a geometric error (angular,
     /// Sampson) makes the threshold mean the same for every correspondence.
     fn row_error(&self, x: &SVector<f64, NX>, row: &[f64], globals: &[f64]) -> f64 {
-        super::estimate::row_residual::<Self::Tracked, NX, NF, NP, NC>(x, row, globals)
+        super::residual::row_residual::<Self::Tracked, NX, NF, NP, NC>(x, row, globals)
     }
     /// Whether two end points of one RANSAC sample are the same solution (only one is kept,
     /// [`DeclaredProblem::SAMPLE_CANDIDATES`]). Default: every unknown within `1e-6` relative;
@@ -273,4 +272,16 @@ impl<const NX: usize, E> From<Result<SVector<f64, NX>, E>> for Refinement<NX> {
     fn from(r: Result<SVector<f64, NX>, E>) -> Self {
         r.map_or(Refinement::Failed, Refinement::Converged)
     }
+}
+
+/// Data that no solve can use ([`DeclaredProblem::check_input`]): where and why. Plain data,
+/// so that a check allocates nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("{}{reason}", match row { Some(r) => format!("row {r}: "), None => String::new() })]
+pub struct DegenerateInput {
+    /// The row (correspondence) at fault, `None` when the rows together are (all rays from one
+    /// origin, all points on a line).
+    pub row: Option<usize>,
+    /// What is wrong, and what it makes unobservable.
+    pub reason: &'static str,
 }

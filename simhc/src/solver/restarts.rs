@@ -8,14 +8,14 @@
 //! fallback's milliseconds.
 //!
 //! The restart providers follow the other starts in a solve's provider list
-//! ([`restart_provider`]), and their attempts come last before the fallback
-//! ([`restart_attempts`]).
+//! ([`super::schedule::restart_provider`]), and their attempts come last before the fallback
+//! ([`super::schedule::restart_attempts`]).
 
-use super::hypotheses::{other_provider, RankedStarts};
-use super::instance::{InstanceProblem, LearnedHypotheses};
+use super::hypotheses::{LearnedHypotheses, RankedStarts};
+use super::instance::InstanceProblem;
 use crate::layout::{FieldKind, Layout};
 use crate::metrics::{quat_from_rotation, rotation_from_quat};
-use crate::pipeline::{Attempt, Method, StartError, StartProvider};
+use crate::pipeline::{StartError, StartProvider};
 use nalgebra::{Rotation3, SVector, Unit, Vector3};
 
 /// Most restarts a problem may ask for ([`super::DeclaredProblem::RESTARTS`]): a solve holds their
@@ -69,16 +69,6 @@ pub fn rotated_restart<const NX: usize>(layout: &Layout, x: &SVector<f64, NX>, k
     Some(out)
 }
 
-/// The index of restart `k` in a solve's provider list: after the `others` other starts.
-pub const fn restart_provider(hypotheses: usize, others: usize, k: usize) -> usize {
-    other_provider(hypotheses, others) + k
-}
-
-/// The attempts of `restarts` restarts: Gauss-Newton on the tracked rows from each, in order.
-pub fn restart_attempts(hypotheses: usize, others: usize, restarts: usize) -> impl Iterator<Item = Attempt> {
-    (0..restarts).map(move |k| Attempt { provider: restart_provider(hypotheses, others, k), method: Method::GaussNewton })
-}
-
 /// Restart `k` around the first-ranked hypothesis of a solve, as a start provider.
 pub struct RestartStart<'h, 'a, S, L, const NX: usize, const NF: usize, const NP: usize, const NC: usize> {
     /// The solve's hypotheses.
@@ -109,9 +99,11 @@ where
 
 #[cfg(test)]
 mod tests {
+    use super::super::schedule::{restart_attempts, restart_provider};
     use super::*;
     use crate::layout::FieldLayout;
     use crate::metrics::rotation_error_deg;
+    use crate::pipeline::{Attempt, Method};
 
     const LAYOUT: Layout = Layout {
         unknowns: &[

@@ -4,9 +4,9 @@ against PoseLib's (both called from this process, bindings included in every tim
     python3 bench/peers/python_calls.py --trials 1000 --seed 1 [--noise-px 0]
 
 Needs `pip install poselib numpy ./python ./examples/generalized-relative-pose/python` (the
-`simhc` wheel and the example problem's module `grp`).
+`simhc` wheel and the example problem's module `gen_relpose`).
 
-- Generalized relative pose with known scale: `grp.solve` (the example problem's module, made by
+- Generalized relative pose with known scale: `gen_relpose.solve` (the example problem's module, made by
   `simhc_pymodule::python_module!`) on the rows of 7 correspondences, stacked from the four
   arrays in the timed call (its answer is validated on all 7) against `poselib.gen_relpose_6pt` on the first 6, whose
   solutions are ranked on the 7th (the smallest coplanarity residual), as a caller must.
@@ -31,7 +31,7 @@ import time
 import numpy as np
 import poselib
 
-import grp
+import gen_relpose
 import simhc
 
 # The rig scenes' rotation, error metrics and focal length are robust_grp.py's (this folder).
@@ -119,8 +119,8 @@ def main():
         f, v, fp, vp, Rg, tg = tr
         t0 = clock()
         try:
-            x = grp.solve(np.hstack([f, v, fp, vp]), noise=a.noise_px)
-        except grp.SolveError:
+            x = gen_relpose.solve(np.hstack([f, v, fp, vp]), noise=a.noise_px)
+        except gen_relpose.SolveError:
             return False, (clock() - t0) * 1e6
         us = (clock() - t0) * 1e6
         eR, et = errors(quaternion_rotation(x["q"]), x["t"], Rg, tg)
@@ -174,7 +174,7 @@ def main():
         (simhc_rel if len(tr) == 6 else simhc_abs)(tr)
     print("| call | succ % | t med us | t mean us |")
     print("|---|---|---|---|")
-    s_rel = summary("grp.solve (7 corr.)", [simhc_rel(t) for t in rel])
+    s_rel = summary("gen_relpose.solve (7 corr.)", [simhc_rel(t) for t in rel])
     p_rel = summary("poselib.gen_relpose_6pt (6 + pick on the 7th)", [poselib_rel(t) for t in rel])
     s_abs = summary("simhc.upnp (10 corr.)", [simhc_abs(t) for t in absol])
     p_abs = summary("poselib.gp3p (3 + pick on 10)", [poselib_abs(t) for t in absol])
@@ -185,8 +185,8 @@ def main():
     t0 = clock()
     for _ in range(reps):
         try:
-            grp.solve(np.hstack([f[:6], v[:6], fp[:6], vp[:6]]))
-        except grp.InputError:
+            gen_relpose.solve(np.hstack([f[:6], v[:6], fp[:6], vp[:6]]))
+        except gen_relpose.InputError:
             pass
     print(f"simhc binding cost (four (6, 3) arrays stacked, converted and checked, then rejected): {(clock() - t0) * 1e6 / reps:.2f} us per call")
     # PoseLib's binding cost, bounded above: `gp3p` on 2 correspondences (too few for a pose)

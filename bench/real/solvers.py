@@ -5,7 +5,7 @@ Every runner returns a dict {ok, R, t, s, mask, ms, error} in one convention per
 - `upnp`: frame i is the world, alpha f + v = R p + t (frame-i coordinates into frame j's rig).
 
 Thresholds: one threshold `px` in pixels for both sides. simhc's estimators take an angle in
-radians (`grp.estimate`, the example problem's module: the Sampson error of the coplanarity as an angle, both bearings
+radians (`gen_relpose.estimate`, the example problem's module: the Sampson error of the coplanarity as an angle, both bearings
 noisy; `estimate_grps`: the sine of the angle between a bearing and its triangulated point, both
 views; `estimate_upnp`: the angle between a bearing and the direction to its point), so simhc
 gets `px / fx`; PoseLib gets pixels with KITTI's real pinhole cameras (`max_epipolar_error`,
@@ -24,7 +24,7 @@ import time
 import numpy as np
 import poselib
 
-import grp
+import gen_relpose
 import simhc
 
 # The focal length (pixels) that simhc's `noise` argument refers to (python/src/builtin.rs and
@@ -58,7 +58,7 @@ def _rig_centre(v):
 
 
 def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0, min_iterations=1000):
-    """grp.estimate (or simhc.estimate_grps with frame j's offsets divided by
+    """gen_relpose.estimate (or simhc.estimate_grps with frame j's offsets divided by
     `s_true`, so that the true scale is `s_true`)."""
     f1, v1, f2 = pair.f1, pair.v1, pair.f2
     v2 = pair.v2 / s_true
@@ -73,10 +73,10 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
             pose, info = simhc.estimate_grps(f1, v1n, f2, v2n, threshold=th, seed=seed, min_iterations=min_iterations)
             R, t_unit = np.array(pose.R), np.array(pose.t)
         else:
-            x, info = grp.estimate(np.hstack([f1, v1n, f2, v2n]), threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
+            x, info = gen_relpose.estimate(np.hstack([f1, v1n, f2, v2n]), threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
                                    min_iterations=min_iterations)
             R, t_unit = quaternion_rotation(x["q"]), np.array(x["t"])
-    except (simhc.SolveError, grp.SolveError) as e:
+    except (simhc.SolveError, gen_relpose.SolveError) as e:
         return _failed((time.perf_counter() - t0) * 1e3, f"{type(e).__name__}: {e}", len(f1))
     ms = (time.perf_counter() - t0) * 1e3
     s = float(pose.s) if grps else 1.0

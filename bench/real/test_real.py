@@ -24,9 +24,9 @@ try:
     import gtsam  # noqa: F401
     import poselib  # noqa: F401
     import simhc._simhc  # noqa: F401  (the wheel, not the repository's simhc/ crate folder)
-    import grp  # noqa: F401  (the example problem's module)
+    import gen_relpose  # noqa: F401  (the example problem's module)
 except ImportError as e:
-    raise ImportError(f"bench/real needs gtsam, poselib, the simhc wheel and the grp module in this Python ({e}); "
+    raise ImportError(f"bench/real needs gtsam, poselib, the simhc wheel and the gen_relpose module in this Python ({e}); "
                       "pip install gtsam poselib ./python ./examples/generalized-relative-pose/python") from e
 
 import bench  # noqa: E402

@@ -11,9 +11,9 @@ on all correspondences, and a solve without a validated answer raises a ``SolveE
 - ``estimate_grps(f, v, fp, vp, threshold=...)``: GRPS, robust (LO-RANSAC), N >= 7.
 
 A problem of your own (and the example, generalized relative pose with known scale) is a module
-of its own, made by one line of its crate, ``simhc_pymodule::python_module!(grp, ...)``: ``import
-grp`` (``pip install ./examples/generalized-relative-pose/python``), with its own ``grp.InputError``
-and ``grp.SolveError``.
+of its own, made by one line of its crate, ``simhc_pymodule::python_module!(gen_relpose, ...)``: ``import
+gen_relpose`` (``pip install ./examples/generalized-relative-pose/python``), with its own ``gen_relpose.InputError``
+and ``gen_relpose.SolveError``.
 
 Exceptions: ``InputError`` (a ``ValueError`` naming the array or correspondence and field),
 ``SolveError`` (a ``RuntimeError``) with ``NotValidatedError`` and ``NoSolutionError``.

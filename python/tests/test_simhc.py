@@ -1,7 +1,7 @@
 """simhc from Python: correct poses on seeded synthetic scenes, typed exceptions on bad input.
 
-Run with ``pytest python/tests`` after ``maturin develop --release -m python/Cargo.toml`` (what
-``.ci/run`` does). Every scene comes from ``numpy.random.default_rng(seed)``; a failure prints
+Run with ``pytest python/tests`` after ``pip install ./python`` (what ``.ci/run`` does; the
+example problem's module ``gen_relpose`` has its tests in ``examples/generalized-relative-pose/python``). Every scene comes from ``numpy.random.default_rng(seed)``; a failure prints
 its seed.
 """
 

@@ -5,7 +5,7 @@
 //!
 //! `pyo3::create_exception!` fixes a type's module when the library is compiled, so a user's
 //! module would raise `simhc.InputError`. Here the types are created when the module is
-//! imported ([`Exceptions::new`]), named for it: `grp.InputError`, `simhc.InputError`.
+//! imported ([`Exceptions::new`]), named for it: `gen_relpose.InputError`, `simhc.InputError`.
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
@@ -71,7 +71,7 @@ fn new_type(py: Python<'_>, module: &str, name: &str, doc: &str, base: &Bound<'_
 }
 
 impl Exceptions {
-    /// The four types for the module named `module` (`grp.InputError`, ...).
+    /// The four types for the module named `module` (`gen_relpose.InputError`, ...).
     pub fn new(py: Python<'_>, module: &str) -> PyResult<Self> {
         let input = new_type(py, module, "InputError", INPUT_DOC, &py.get_type::<PyValueError>())?;
         let solve = new_type(py, module, "SolveError", SOLVE_DOC, &py.get_type::<PyRuntimeError>())?;

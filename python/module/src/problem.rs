@@ -424,7 +424,7 @@ impl ProblemSolver {
 
 /// Puts a declared problem in a Python module: its solver as `solver`, and `solve`,
 /// `solve_batch`, `estimate` as module functions, with the exception types and the module's
-/// help, all named for the module (`grp.InputError`, `help(grp)`).
+/// help, all named for the module (`gen_relpose.InputError`, `help(gen_relpose)`).
 pub fn add_problem<'py, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>(
     m: &Bound<'py, pyo3::types::PyModule>,
     problem: S,
@@ -446,7 +446,7 @@ where
         Ok(Arc::new(solver))
     };
     let py = m.py();
-    let module = m.name()?.to_string();
+    let module = public_name(&m.name()?.to_string()).to_string();
     let exceptions = Exceptions::new(py, &module)?;
     exceptions.add_to(m)?;
     let solver = ProblemSolver::new(Box::new(make), exceptions, &module).map_err(pyo3::exceptions::PyRuntimeError::new_err)?;
@@ -461,6 +461,30 @@ where
     }
     m.setattr("__doc__", module_doc(&module, S::NAME, &layout))?;
     Ok(object)
+}
+
+/// The name a user imports for an extension module named `name`: maturin installs a crate's
+/// module `m` as the package `m` holding the extension `m.m` (its `__init__` re-exports it),
+/// and a package's private extension is `package._name`; both are imported as the package.
+pub fn public_name(name: &str) -> &str {
+    match name.rsplit_once('.') {
+        Some((package, last)) if last.starts_with('_') || package.rsplit('.').next() == Some(last) => package,
+        _ => name,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::public_name;
+
+    #[test]
+    fn the_public_name_is_the_package_that_re_exports_the_extension() {
+        assert_eq!(public_name("gen_relpose.gen_relpose"), "gen_relpose");
+        assert_eq!(public_name("simhc._simhc"), "simhc");
+        assert_eq!(public_name("grp"), "grp");
+        assert_eq!(public_name("vision.solvers.focal"), "vision.solvers.focal");
+        assert_eq!(public_name("vision.focal.focal"), "vision.focal");
+    }
 }
 
 /// The help of a problem's module: what it solves and the names it holds.
@@ -489,12 +513,12 @@ fn module_doc(module: &str, problem: &str, layout: &Layout) -> String {
 /// maturin):
 ///
 /// ```ignore
-/// simhc_pymodule::python_module!(grp, generalized_relative_pose::GenRelPose::new());
+/// simhc_pymodule::python_module!(gen_relpose, generalized_relative_pose::GenRelPose::new());
 /// ```
 ///
-/// gives `import grp; grp.solve(rows)`, `grp.estimate(rows, threshold=..)`,
-/// `grp.solve_batch(rows)`, `grp.solver` ([`ProblemSolver`]) and the exceptions
-/// `grp.InputError`, `grp.SolveError`, `grp.NotValidatedError`, `grp.NoSolutionError`. The
+/// gives `import gen_relpose; gen_relpose.solve(rows)`, `gen_relpose.estimate(rows, threshold=..)`,
+/// `gen_relpose.solve_batch(rows)`, `gen_relpose.solver` ([`ProblemSolver`]) and the exceptions
+/// `gen_relpose.InputError`, `gen_relpose.SolveError`, `gen_relpose.NotValidatedError`, `gen_relpose.NoSolutionError`. The
 /// solver is built once, at import. The crate must depend on `simhc-pymodule` under that name.
 #[macro_export]
 macro_rules! python_module {

@@ -1,6 +1,6 @@
-"""The example problem's module, ``import grp``: made by the one line a user's crate writes
+"""The example problem's module, ``import gen_relpose``: made by the one line a user's crate writes
 (``simhc_pymodule::python_module!``), it must solve, estimate and batch correctly, and its
-errors and help must name ``grp``, not ``simhc``.
+errors and help must name ``gen_relpose``, not ``simhc``.
 
 Run with ``pytest examples/generalized-relative-pose/python/tests`` after
 ``pip install ./examples/generalized-relative-pose/python`` (what ``.ci/run`` does). Every scene
@@ -10,7 +10,7 @@ comes from ``numpy.random.default_rng(seed)``; a failure prints its seed.
 import numpy as np
 import pytest
 
-import grp
+import gen_relpose
 
 
 def quaternion_rotation(q):
@@ -50,11 +50,11 @@ def rows_of(f, v, fp, vp):
 
 def test_solve_returns_the_true_pose_with_its_certificate():
     f, v, fp, vp, r, t = relative_scene(7, 7)
-    assert grp.solver.name and grp.solver.rows == 7
-    assert grp.solver.row_fields == [("f", 3), ("v", 3), ("fp", 3), ("vp", 3)]
-    assert grp.solver.unknowns == [("q", 4), ("t", 3)]
-    assert grp.solver.global_fields == []
-    x = grp.solve(rows_of(f, v, fp, vp))
+    assert gen_relpose.solver.name and gen_relpose.solver.rows == 7
+    assert gen_relpose.solver.row_fields == [("f", 3), ("v", 3), ("fp", 3), ("vp", 3)]
+    assert gen_relpose.solver.unknowns == [("q", 4), ("t", 3)]
+    assert gen_relpose.solver.global_fields == []
+    x = gen_relpose.solve(rows_of(f, v, fp, vp))
     assert rotation_error_deg(quaternion_rotation(x["q"]), r) < 1e-4
     assert np.linalg.norm(x["t"] - t) < 1e-6 * np.linalg.norm(t)
     # Noise-free data: the solution is certified next to an exact root.
@@ -66,8 +66,8 @@ def test_solve_solves_most_and_is_never_wrong():
     for seed in range(30):
         f, v, fp, vp, r, t = relative_scene(100 + seed, 7)
         try:
-            x = grp.solve(rows_of(f, v, fp, vp))
-        except grp.SolveError:
+            x = gen_relpose.solve(rows_of(f, v, fp, vp))
+        except gen_relpose.SolveError:
             continue  # flagged: allowed, but never a wrong pose
         assert rotation_error_deg(quaternion_rotation(x["q"]), r) < 0.1, f"seed {100 + seed}: a wrong pose came back"
         assert np.linalg.norm(x["t"] - t) < 1e-2 * np.linalg.norm(t), f"seed {100 + seed}"
@@ -78,17 +78,17 @@ def test_solve_solves_most_and_is_never_wrong():
 def test_batch_gives_the_single_answers():
     scenes = [relative_scene(200 + s, 7) for s in range(12)]
     rows = np.stack([rows_of(*sc[:4]) for sc in scenes])
-    x, ok = grp.solve_batch(rows)
+    x, ok = gen_relpose.solve_batch(rows)
     assert x.shape == (12, 7) and ok.dtype == np.bool_
     assert ok.sum() >= 10
     for i, sc in enumerate(scenes):
         if ok[i]:
-            single = grp.solve(rows[i])
+            single = gen_relpose.solve(rows[i])
             assert np.allclose(x[i, 4:], single["t"], atol=1e-12)
             assert np.linalg.norm(x[i, 4:] - sc[5]) < 1e-2 * np.linalg.norm(sc[5]), f"scene {i}"
         else:
             assert np.isnan(x[i]).all()
-    empty_x, empty_ok = grp.solve_batch(np.zeros((0, 7, 12)))
+    empty_x, empty_ok = gen_relpose.solve_batch(np.zeros((0, 7, 12)))
     assert empty_x.shape == (0, 7) and empty_ok.shape == (0,)
 
 
@@ -99,7 +99,7 @@ def test_estimate_finds_the_inliers_among_outliers():
     outliers = rng.choice(60, 24, replace=False)  # 40 %
     fp[outliers] = unit(rng.normal(size=(24, 3)))
     fp = unit(fp + rng.normal(scale=0.5 / 800, size=fp.shape))  # about half a pixel at f = 800 px
-    x, info = grp.estimate(rows_of(f, v, fp, vp), threshold=2.5 / 800, noise=1.0, seed=seed)  # 2.5 px
+    x, info = gen_relpose.estimate(rows_of(f, v, fp, vp), threshold=2.5 / 800, noise=1.0, seed=seed)  # 2.5 px
     truth = np.ones(60, bool)
     truth[outliers] = False
     assert info["inlier_mask"].dtype == np.bool_ and info["inlier_mask"].shape == (60,)
@@ -116,35 +116,35 @@ def test_bad_input_raises_the_modules_input_error_that_says_where():
     f, v, fp, vp, _, _ = relative_scene(4, 7)
     rows = rows_of(f, v, fp, vp)
     rows[4, 9] = np.inf
-    with pytest.raises(grp.InputError, match=r"row 4, field `vp`"):
-        grp.solve(rows)
+    with pytest.raises(gen_relpose.InputError, match=r"row 4, field `vp`"):
+        gen_relpose.solve(rows)
     rows[4, 9] = 0.0
     rows[2, 9] = np.nan
-    with pytest.raises(grp.InputError, match=r"row 2, field `vp`"):
-        grp.solve(rows)
+    with pytest.raises(gen_relpose.InputError, match=r"row 2, field `vp`"):
+        gen_relpose.solve(rows)
     rows[2, 9] = 0.0
-    with pytest.raises(grp.InputError, match="exactly 7"):
-        grp.solve(rows[:6])
-    with pytest.raises(grp.InputError, match=r"expected an array of shape \(N, 12\), got shape \(7, 11\)"):
-        grp.solve(rows[:, :11])
-    with pytest.raises(grp.InputError, match="too few correspondences: got 5, need at least 7"):
-        grp.estimate(rows[:5], threshold=1 / 800)
-    with pytest.raises(grp.InputError, match="threshold"):
-        grp.estimate(rows, threshold=-1.0)
-    with pytest.raises(grp.InputError, match="noise"):
-        grp.solve(rows, noise=-1.0)
-    with pytest.raises(grp.InputError, match="not an array of numbers"):
-        grp.solve("rows")
+    with pytest.raises(gen_relpose.InputError, match="exactly 7"):
+        gen_relpose.solve(rows[:6])
+    with pytest.raises(gen_relpose.InputError, match=r"expected an array of shape \(N, 12\), got shape \(7, 11\)"):
+        gen_relpose.solve(rows[:, :11])
+    with pytest.raises(gen_relpose.InputError, match="too few correspondences: got 5, need at least 7"):
+        gen_relpose.estimate(rows[:5], threshold=1 / 800)
+    with pytest.raises(gen_relpose.InputError, match="threshold"):
+        gen_relpose.estimate(rows, threshold=-1.0)
+    with pytest.raises(gen_relpose.InputError, match="noise"):
+        gen_relpose.solve(rows, noise=-1.0)
+    with pytest.raises(gen_relpose.InputError, match="not an array of numbers"):
+        gen_relpose.solve("rows")
 
 
 def test_empty_arrays_raise_and_do_not_crash():
     empty = np.zeros((0, 12))
     for call in (
-        lambda: grp.solve(empty),
-        lambda: grp.estimate(empty, threshold=1 / 800),
-        lambda: grp.solve([]),
+        lambda: gen_relpose.solve(empty),
+        lambda: gen_relpose.estimate(empty, threshold=1 / 800),
+        lambda: gen_relpose.solve([]),
     ):
-        with pytest.raises(grp.InputError):
+        with pytest.raises(gen_relpose.InputError):
             call()
 
 
@@ -152,8 +152,8 @@ def test_data_no_pose_fits_is_never_a_pose():
     rng = np.random.default_rng(5)
     f, v, fp, vp = (unit(rng.normal(size=(7, 3))), rng.normal(size=(7, 3)), unit(rng.normal(size=(7, 3))), rng.normal(size=(7, 3)))
     try:
-        x = grp.solve(rows_of(f, v, fp, vp))
-    except grp.SolveError:
+        x = gen_relpose.solve(rows_of(f, v, fp, vp))
+    except gen_relpose.SolveError:
         return
     # Seven random rays can have a pose by chance only if all seven are coplanar with it.
     r, t = quaternion_rotation(x["q"]), x["t"]
@@ -164,20 +164,20 @@ def test_data_no_pose_fits_is_never_a_pose():
 
 def test_errors_and_help_name_the_module_not_simhc():
     for name, base in (("InputError", ValueError), ("SolveError", RuntimeError), ("NotValidatedError", RuntimeError), ("NoSolutionError", RuntimeError)):
-        cls = getattr(grp, name)
-        assert cls.__module__ == "grp" and cls.__qualname__ == name, f"{cls!r}"
+        cls = getattr(gen_relpose, name)
+        assert cls.__module__ == "gen_relpose" and cls.__qualname__ == name, f"{cls!r}"
         assert issubclass(cls, base)
-    assert issubclass(grp.NotValidatedError, grp.SolveError) and issubclass(grp.NoSolutionError, grp.SolveError)
-    with pytest.raises(grp.InputError) as raised:
-        grp.solve(np.zeros((3, 12)))
-    assert type(raised.value).__module__ == "grp" and type(raised.value) is grp.InputError
-    # What a traceback prints: `grp.InputError: ...`.
-    assert repr(raised.type) == "<class 'grp.InputError'>"
-    assert type(grp.solver).__module__ == "grp" and type(grp.solver) is grp.ProblemSolver
-    assert repr(grp.solver).startswith("<grp.solver ")
-    doc = grp.__doc__
-    for text in ("grp.solve(", "grp.estimate(", "grp.solve_batch(", "grp.InputError", "grp.SolveError", "[f (3), v (3), fp (3), vp (3)]"):
+    assert issubclass(gen_relpose.NotValidatedError, gen_relpose.SolveError) and issubclass(gen_relpose.NoSolutionError, gen_relpose.SolveError)
+    with pytest.raises(gen_relpose.InputError) as raised:
+        gen_relpose.solve(np.zeros((3, 12)))
+    assert type(raised.value).__module__ == "gen_relpose" and type(raised.value) is gen_relpose.InputError
+    # What a traceback prints: `gen_relpose.InputError: ...`.
+    assert repr(raised.type) == "<class 'gen_relpose.InputError'>"
+    assert type(gen_relpose.solver).__module__ == "gen_relpose" and type(gen_relpose.solver) is gen_relpose.ProblemSolver
+    assert repr(gen_relpose.solver).startswith("<gen_relpose.solver ")
+    doc = gen_relpose.__doc__
+    for text in ("gen_relpose.solve(", "gen_relpose.estimate(", "gen_relpose.solve_batch(", "gen_relpose.InputError", "gen_relpose.SolveError", "[f (3), v (3), fp (3), vp (3)]"):
         assert text in doc, text
     assert "simhc." not in doc
-    assert "inlier_mask" in grp.estimate.__doc__
-    assert "threshold" in grp.estimate.__text_signature__
+    assert "inlier_mask" in gen_relpose.estimate.__doc__
+    assert "threshold" in gen_relpose.estimate.__text_signature__

@@ -473,20 +473,6 @@ pub fn public_name(name: &str) -> &str {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::public_name;
-
-    #[test]
-    fn the_public_name_is_the_package_that_re_exports_the_extension() {
-        assert_eq!(public_name("gen_relpose.gen_relpose"), "gen_relpose");
-        assert_eq!(public_name("simhc._simhc"), "simhc");
-        assert_eq!(public_name("grp"), "grp");
-        assert_eq!(public_name("vision.solvers.focal"), "vision.solvers.focal");
-        assert_eq!(public_name("vision.focal.focal"), "vision.focal");
-    }
-}
-
 /// The help of a problem's module: what it solves and the names it holds.
 fn module_doc(module: &str, problem: &str, layout: &Layout) -> String {
     let names = |f: &[FieldLayout]| f.iter().map(|f| format!("{} ({})", f.name, f.kind.len())).collect::<Vec<_>>().join(", ");
@@ -516,10 +502,13 @@ fn module_doc(module: &str, problem: &str, layout: &Layout) -> String {
 /// simhc_pymodule::python_module!(gen_relpose, generalized_relative_pose::GenRelPose::new());
 /// ```
 ///
-/// gives `import gen_relpose; gen_relpose.solve(rows)`, `gen_relpose.estimate(rows, threshold=..)`,
-/// `gen_relpose.solve_batch(rows)`, `gen_relpose.solver` ([`ProblemSolver`]) and the exceptions
-/// `gen_relpose.InputError`, `gen_relpose.SolveError`, `gen_relpose.NotValidatedError`, `gen_relpose.NoSolutionError`. The
-/// solver is built once, at import. The crate must depend on `simhc-pymodule` under that name.
+/// gives `import gen_relpose; gen_relpose.solve(rows)`, `gen_relpose.estimate(rows,
+/// threshold=..)`, `gen_relpose.solve_batch(rows)`, `gen_relpose.solver` ([`ProblemSolver`])
+/// and the exceptions `gen_relpose.InputError`, `gen_relpose.SolveError`,
+/// `gen_relpose.NotValidatedError`, `gen_relpose.NoSolutionError` (named by [`public_name`]).
+/// The solver is built once, at import. The crate must depend on `simhc-pymodule` under that
+/// name. Do not name a module after one of the standard library's (`grp` is Unix groups):
+/// Python finds that one first.
 #[macro_export]
 macro_rules! python_module {
     ($module:ident, $problem:expr) => {
@@ -529,4 +518,18 @@ macro_rules! python_module {
             $crate::add_problem(m, $problem).map(|_| ())
         }
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::public_name;
+
+    #[test]
+    fn the_public_name_is_the_package_that_re_exports_the_extension() {
+        assert_eq!(public_name("gen_relpose.gen_relpose"), "gen_relpose");
+        assert_eq!(public_name("simhc._simhc"), "simhc");
+        assert_eq!(public_name("grp"), "grp");
+        assert_eq!(public_name("vision.solvers.focal"), "vision.solvers.focal");
+        assert_eq!(public_name("vision.focal.focal"), "vision.focal");
+    }
 }

@@ -100,14 +100,4 @@ impl Exceptions {
         };
         PyErr::from_type(ty.bind(py).clone(), message)
     }
-
-    /// The same types, another reference (one set per module, shared by its solvers).
-    pub fn clone_ref(&self, py: Python<'_>) -> Self {
-        Self {
-            input: self.input.clone_ref(py),
-            solve: self.solve.clone_ref(py),
-            not_validated: self.not_validated.clone_ref(py),
-            no_solution: self.no_solution.clone_ref(py),
-        }
-    }
 }

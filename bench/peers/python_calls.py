@@ -3,10 +3,12 @@ against PoseLib's (both called from this process, bindings included in every tim
 
     python3 bench/peers/python_calls.py --trials 1000 --seed 1 [--noise-px 0]
 
-Needs `pip install poselib numpy` and the simhc package (`cd python && maturin develop --release`).
+Needs `pip install poselib numpy ./python ./examples/generalized-relative-pose/python` (the
+`simhc` wheel and the example problem's module `gen_relpose`).
 
-- Generalized relative pose with known scale: `simhc.gen_relpose` on 7 correspondences (its
-  answer is validated on all 7) against `poselib.gen_relpose_6pt` on the first 6, whose
+- Generalized relative pose with known scale: `gen_relpose.solve` (the example problem's module, made by
+  `simhc_pymodule::python_module!`) on the rows of 7 correspondences, stacked from the four
+  arrays in the timed call (its answer is validated on all 7) against `poselib.gen_relpose_6pt` on the first 6, whose
   solutions are ranked on the 7th (the smallest coplanarity residual), as a caller must.
 - Generalized absolute pose: `simhc.upnp` on N = 10 correspondences against `poselib.gp3p` on
   the first 3, ranked on all 10 (the smallest sum of angular errors).
@@ -29,6 +31,7 @@ import time
 import numpy as np
 import poselib
 
+import gen_relpose
 import simhc
 
 # The rig scenes' rotation, error metrics and focal length are robust_grp.py's (this folder).
@@ -41,6 +44,17 @@ def noisy(d, sigma, rng):
         return f
     g = f + rng.normal(0, sigma, 3)
     return g / np.linalg.norm(g)
+
+
+def quaternion_rotation(q):
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def point(rng):
@@ -105,11 +119,11 @@ def main():
         f, v, fp, vp, Rg, tg = tr
         t0 = clock()
         try:
-            pose = simhc.gen_relpose(f, v, fp, vp, noise=a.noise_px)
-        except simhc.SolveError:
+            x = gen_relpose.solve(np.hstack([f, v, fp, vp]), noise=a.noise_px)
+        except gen_relpose.SolveError:
             return False, (clock() - t0) * 1e6
         us = (clock() - t0) * 1e6
-        eR, et = errors(pose.R, pose.t, Rg, tg)
+        eR, et = errors(quaternion_rotation(x["q"]), x["t"], Rg, tg)
         return eR < 2 and et < 5, us
 
     def poselib_rel(tr):
@@ -160,21 +174,21 @@ def main():
         (simhc_rel if len(tr) == 6 else simhc_abs)(tr)
     print("| call | succ % | t med us | t mean us |")
     print("|---|---|---|---|")
-    s_rel = summary("simhc.gen_relpose (7 corr.)", [simhc_rel(t) for t in rel])
+    s_rel = summary("gen_relpose.solve (7 corr.)", [simhc_rel(t) for t in rel])
     p_rel = summary("poselib.gen_relpose_6pt (6 + pick on the 7th)", [poselib_rel(t) for t in rel])
     s_abs = summary("simhc.upnp (10 corr.)", [simhc_abs(t) for t in absol])
     p_abs = summary("poselib.gp3p (3 + pick on 10)", [poselib_abs(t) for t in absol])
-    # simhc's binding cost: a call whose four arrays are converted and checked, then rejected
-    # (6 rows where 7 are needed) before any solve.
+    # simhc's binding cost: a call whose four arrays are stacked, converted and checked, then
+    # rejected (6 rows where 7 are needed) before any solve.
     f, v, fp, vp = rel[0][:4]
     reps = 20000
     t0 = clock()
     for _ in range(reps):
         try:
-            simhc.gen_relpose(f[:6], v[:6], fp[:6], vp[:6])
-        except simhc.InputError:
+            gen_relpose.solve(np.hstack([f[:6], v[:6], fp[:6], vp[:6]]))
+        except gen_relpose.InputError:
             pass
-    print(f"simhc binding cost (four (6, 3) arrays converted and checked, then rejected): {(clock() - t0) * 1e6 / reps:.2f} us per call")
+    print(f"simhc binding cost (four (6, 3) arrays stacked, converted and checked, then rejected): {(clock() - t0) * 1e6 / reps:.2f} us per call")
     # PoseLib's binding cost, bounded above: `gp3p` on 2 correspondences (too few for a pose)
     # converts its three lists of vectors and returns at once or nearly; simhc's `upnp` on 2 is
     # the same arrays converted, checked and rejected.

@@ -8,7 +8,7 @@
 (`bench/real/run.sh` makes the virtual env and calls this.) For every frame pair (i, i + gap),
 positions in the 135-frame list, it builds one set of correspondences (`correspondences.py`,
 cameras drawn with the seed) and runs:
-- relpose: simhc.estimate_gen_relpose vs PoseLib estimate_generalized_relative_pose;
+- relpose: gen_relpose.estimate (the example problem's module) vs PoseLib estimate_generalized_relative_pose;
 - grps: simhc.estimate_grps at true scale 1 and at `--grps-scale` (frame j's camera offsets
   divided by it); no PoseLib peer (PoseLib has no generalized relative pose and scale);
 - upnp: simhc.estimate_upnp vs PoseLib estimate_generalized_absolute_pose.
@@ -220,6 +220,7 @@ def finite(o):
 
 def main(argv=None):
     a = parse_args(argv)
+    import gen_relpose
     import poselib
     import simhc
 
@@ -228,7 +229,7 @@ def main(argv=None):
           f"{a.abs_px} px (upnp); simhc noise {a.noise_px} px; simhc input scale {a.scale_name}; grps known scale {a.grps_scale}", file=log)
     from importlib.metadata import version
 
-    print(f"simhc {version('simhc')} from {os.path.dirname(simhc.__file__)}; poselib {version('poselib')}; gtsam {version('gtsam')}", file=log)
+    print(f"simhc {version('simhc')} from {os.path.dirname(simhc.__file__)}; gen_relpose {version('gen-relpose')} from {gen_relpose.__file__}; poselib {version('poselib')}; gtsam {version('gtsam')}", file=log)
     data = kitti.load()
     if max(a.gaps) >= len(data.ids):
         sys.exit(f"bench.py: --gaps {max(a.gaps)}: the sequence has {len(data.ids)} frames, so a gap must be below {len(data.ids)}")

@@ -5,7 +5,7 @@ Every runner returns a dict {ok, R, t, s, mask, ms, error} in one convention per
 - `upnp`: frame i is the world, alpha f + v = R p + t (frame-i coordinates into frame j's rig).
 
 Thresholds: one threshold `px` in pixels for both sides. simhc's estimators take an angle in
-radians (`estimate_gen_relpose`: the Sampson error of the coplanarity as an angle, both bearings
+radians (`gen_relpose.estimate`, the example problem's module: the Sampson error of the coplanarity as an angle, both bearings
 noisy; `estimate_grps`: the sine of the angle between a bearing and its triangulated point, both
 views; `estimate_upnp`: the angle between a bearing and the direction to its point), so simhc
 gets `px / fx`; PoseLib gets pixels with KITTI's real pinhole cameras (`max_epipolar_error`,
@@ -24,10 +24,24 @@ import time
 import numpy as np
 import poselib
 
+import gen_relpose
 import simhc
 
-# The focal length (pixels) that simhc's `noise` argument refers to (python/src/builtin.rs).
+# The focal length (pixels) that simhc's `noise` argument refers to (python/src/builtin.rs and
+# the example problem's FOCAL_PX).
 SIMHC_FOCAL = 800.0
+
+
+def quaternion_rotation(q):
+    """The rotation of a quaternion [w, x, y, z] (normalized first), as the example crate's `pose`."""
+    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def _failed(ms, error, n):
@@ -44,7 +58,7 @@ def _rig_centre(v):
 
 
 def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0, min_iterations=1000):
-    """simhc.estimate_gen_relpose (or estimate_grps with frame j's offsets divided by
+    """gen_relpose.estimate (or simhc.estimate_grps with frame j's offsets divided by
     `s_true`, so that the true scale is `s_true`)."""
     f1, v1, f2 = pair.f1, pair.v1, pair.f2
     v2 = pair.v2 / s_true
@@ -57,15 +71,16 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
     try:
         if grps:
             pose, info = simhc.estimate_grps(f1, v1n, f2, v2n, threshold=th, seed=seed, min_iterations=min_iterations)
+            R, t_unit = np.array(pose.R), np.array(pose.t)
         else:
-            pose, info = simhc.estimate_gen_relpose(f1, v1n, f2, v2n, threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
-                                                    min_iterations=min_iterations)
-    except simhc.SolveError as e:
+            x, info = gen_relpose.estimate(np.hstack([f1, v1n, f2, v2n]), threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
+                                   min_iterations=min_iterations)
+            R, t_unit = quaternion_rotation(x["q"]), np.array(x["t"])
+    except (simhc.SolveError, gen_relpose.SolveError) as e:
         return _failed((time.perf_counter() - t0) * 1e3, f"{type(e).__name__}: {e}", len(f1))
     ms = (time.perf_counter() - t0) * 1e3
-    R = np.array(pose.R)
     s = float(pose.s) if grps else 1.0
-    t = L * np.array(pose.t) - s * R @ c2 + c1
+    t = L * t_unit - s * R @ c2 + c1
     return {"ok": True, "R": R, "t": t, "s": s if grps else None, "mask": np.asarray(info["inlier_mask"], bool), "ms": ms, "error": None,
             "iterations": int(info["iterations"]), "models": int(info["models"])}
 

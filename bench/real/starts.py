@@ -29,6 +29,7 @@ import correspondences  # noqa: E402
 import kitti  # noqa: E402
 import solvers  # noqa: E402
 
+import gen_relpose  # noqa: E402
 import simhc  # noqa: E402
 
 
@@ -69,7 +70,7 @@ def synthetic(n, seed):
         fp = np.array([m[3] for m in tr["matches"]])
         v = np.array([tr["cams1"][m[0]] for m in tr["matches"]])
         vp = np.array([tr["cams2"][m[1]] for m in tr["matches"]])
-        _, info = simhc.estimate_gen_relpose(f, v, fp, vp, threshold=2 * sigma, seed=k)
+        _, info = gen_relpose.estimate(np.hstack([f, v, fp, vp]), threshold=2 * sigma, noise=1.0, seed=k)
         out["relpose"].append(info["models"] / info["iterations"])
         _, info = simhc.estimate_grps(f, v, fp, vp, threshold=2 * sigma, seed=k)
         out["grps"].append(info["models"] / info["iterations"])

@@ -24,9 +24,10 @@ try:
     import gtsam  # noqa: F401
     import poselib  # noqa: F401
     import simhc._simhc  # noqa: F401  (the wheel, not the repository's simhc/ crate folder)
+    import gen_relpose  # noqa: F401  (the example problem's module)
 except ImportError as e:
-    raise ImportError(f"bench/real needs gtsam, poselib and the simhc wheel in this Python ({e}); "
-                      "pip install gtsam poselib ./python") from e
+    raise ImportError(f"bench/real needs gtsam, poselib, the simhc wheel and the gen_relpose module in this Python ({e}); "
+                      "pip install gtsam poselib ./python ./examples/generalized-relative-pose/python") from e
 
 import bench  # noqa: E402
 import correspondences  # noqa: E402

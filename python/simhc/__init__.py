@@ -9,10 +9,11 @@ on all correspondences, and a solve without a validated answer raises a ``SolveE
 - ``estimate_upnp(points, bearings, origins=None, threshold=...)``: UPnP, robust (LO-RANSAC),
   N >= 4.
 - ``estimate_grps(f, v, fp, vp, threshold=...)``: GRPS, robust (LO-RANSAC), N >= 7.
-- ``gen_relpose(f, v, fp, vp)``: generalized relative pose with known scale, exactly 7.
-- ``estimate_gen_relpose(f, v, fp, vp, threshold=...)``: the same, robust (LO-RANSAC), N >= 7.
-- ``grp``: that problem's module as ``simhc_python::python_module!`` makes it for any declared
-  problem (``grp.solve``, ``grp.solve_batch``, ``grp.estimate``, ``grp.solver``).
+
+A problem of your own (and the example, generalized relative pose with known scale) is a module
+of its own, made by one line of its crate, ``simhc_pymodule::python_module!(gen_relpose, ...)``: ``import
+gen_relpose`` (``pip install ./examples/generalized-relative-pose/python``), with its own ``gen_relpose.InputError``
+and ``gen_relpose.SolveError``.
 
 Exceptions: ``InputError`` (a ``ValueError`` naming the array or correspondence and field),
 ``SolveError`` (a ``RuntimeError``) with ``NotValidatedError`` and ``NoSolutionError``.
@@ -23,13 +24,9 @@ from ._simhc import (
     NoSolutionError,
     NotValidatedError,
     Pose,
-    ProblemSolver,
     SolveError,
-    estimate_gen_relpose,
     estimate_grps,
     estimate_upnp,
-    gen_relpose,
-    grp,
     grps,
     upnp,
 )
@@ -39,13 +36,9 @@ __all__ = [
     "NoSolutionError",
     "NotValidatedError",
     "Pose",
-    "ProblemSolver",
     "SolveError",
-    "estimate_gen_relpose",
     "estimate_grps",
     "estimate_upnp",
-    "gen_relpose",
-    "grp",
     "grps",
     "upnp",
 ]

@@ -1,10 +1,8 @@
 //! The built-in problems, UPnP and GRPS, through their library solvers and robust estimators
 //! (built once per process).
 
-use crate::arrays::{same_count, vectors};
-use crate::errors::Failure;
 use crate::pose::Pose;
-use crate::problem::{info_dict, ransac_options, solve_failure};
+use crate::raise;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use simhc::solver::EstimateError;
@@ -17,6 +15,8 @@ use simhc_problems::robust::RobustError;
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::ransac::UpnpEstimator;
 use simhc_problems::upnp::scene::UpnpCorrespondence;
+use simhc_pymodule::arrays::{same_count, vectors};
+use simhc_pymodule::{info_dict, ransac_options, solve_failure, Error, Failure};
 use std::fmt::Display;
 use std::sync::OnceLock;
 
@@ -70,7 +70,7 @@ fn upnp_correspondences(
     points: &Bound<'_, PyAny>,
     bearings: &Bound<'_, PyAny>,
     origins: Option<&Bound<'_, PyAny>>,
-) -> PyResult<Vec<UpnpCorrespondence>> {
+) -> Result<Vec<UpnpCorrespondence>, Error> {
     let p = vectors(points, "points")?;
     let f = vectors(bearings, "bearings")?;
     let v = match origins {
@@ -87,7 +87,7 @@ fn grps_correspondences(
     v: &Bound<'_, PyAny>,
     fp: &Bound<'_, PyAny>,
     vp: &Bound<'_, PyAny>,
-) -> PyResult<Vec<GrpsCorrespondence>> {
+) -> Result<Vec<GrpsCorrespondence>, Error> {
     let (f, v, fp, vp) = (vectors(f, "f")?, vectors(v, "v")?, vectors(fp, "fp")?, vectors(vp, "vp")?);
     let n = same_count(&[("f", f.len()), ("v", v.len()), ("fp", fp.len()), ("vp", vp.len())])?;
     Ok((0..n).map(|i| GrpsCorrespondence { f: f[i], v: v[i], fp: fp[i], vp: vp[i] }).collect())
@@ -135,6 +135,15 @@ fn grps_pose(x: &nalgebra::SVector<f64, 8>) -> Result<GrpsPose, Failure> {
 #[pyfunction]
 #[pyo3(signature = (points, bearings, origins = None))]
 pub fn upnp(py: Python<'_>, points: &Bound<'_, PyAny>, bearings: &Bound<'_, PyAny>, origins: Option<&Bound<'_, PyAny>>) -> PyResult<Pose> {
+    solve_upnp(py, points, bearings, origins).map_err(|e| raise(py, e))
+}
+
+fn solve_upnp(
+    py: Python<'_>,
+    points: &Bound<'_, PyAny>,
+    bearings: &Bound<'_, PyAny>,
+    origins: Option<&Bound<'_, PyAny>>,
+) -> Result<Pose, Error> {
     let corrs = upnp_correspondences(points, bearings, origins)?;
     let solver = upnp_library()?;
     let solution = py.detach(|| solver.solve(&corrs[..])).map_err(solve_failure)?;
@@ -154,6 +163,16 @@ pub fn upnp(py: Python<'_>, points: &Bound<'_, PyAny>, bearings: &Bound<'_, PyAn
 /// `NotValidatedError` or `NoSolutionError` when no pose validates.
 #[pyfunction]
 pub fn grps(py: Python<'_>, f: &Bound<'_, PyAny>, v: &Bound<'_, PyAny>, fp: &Bound<'_, PyAny>, vp: &Bound<'_, PyAny>) -> PyResult<Pose> {
+    solve_grps(py, f, v, fp, vp).map_err(|e| raise(py, e))
+}
+
+fn solve_grps(
+    py: Python<'_>,
+    f: &Bound<'_, PyAny>,
+    v: &Bound<'_, PyAny>,
+    fp: &Bound<'_, PyAny>,
+    vp: &Bound<'_, PyAny>,
+) -> Result<Pose, Error> {
     let corrs = grps_correspondences(f, v, fp, vp)?;
     let solvers = grps_solvers()?;
     let solution = py.detach(|| solvers.solve(&corrs)).map_err(grps_failure)?;
@@ -189,15 +208,18 @@ pub fn estimate_upnp<'py>(
     local_optimization: bool,
     refine_rounds: usize,
 ) -> PyResult<(Pose, Bound<'py, PyDict>)> {
-    let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
-    let max_angle = (8.0 * noise_angle(noise)?).max(1e-6);
-    let corrs = upnp_correspondences(points, bearings, origins)?;
-    // The library solver's learned start, shared: one copy of the weights in the process.
-    let learned = upnp_library()?.learned_start().clone();
-    let estimator =
-        UpnpEstimator::from_learned(learned, max_angle).map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
-    let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
-    Ok((Pose::new(py, &pose.rotation, &pose.translation, None)?, info_dict(py, &info)?))
+    (|| -> Result<_, Error> {
+        let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
+        let max_angle = (8.0 * noise_angle(noise)?).max(1e-6);
+        let corrs = upnp_correspondences(points, bearings, origins)?;
+        // The library solver's learned start, shared: one copy of the weights in the process.
+        let learned = upnp_library()?.learned_start().clone();
+        let estimator =
+            UpnpEstimator::from_learned(learned, max_angle).map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
+        let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
+        Ok((Pose::new(py, &pose.rotation, &pose.translation, None)?, info_dict(py, &info)?))
+    })()
+    .map_err(|e| raise(py, e))
 }
 
 /// Robust generalized relative pose and scale (LO-RANSAC over samples of 7 correspondences,
@@ -226,16 +248,19 @@ pub fn estimate_grps<'py>(
     local_optimization: bool,
     refine_rounds: usize,
 ) -> PyResult<(Pose, Bound<'py, PyDict>)> {
-    let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
-    let corrs = grps_correspondences(f, v, fp, vp)?;
-    // Degenerate data as a whole (one camera pair, a central view) is an input error, not a
-    // sample that fails to validate; a NaN is named by the estimator (correspondence, field).
-    let rows: Vec<f64> = row_numbers(&corrs).collect();
-    if corrs.len() >= 7 && rows.iter().all(|v| v.is_finite()) {
-        validate(&corrs).map_err(|e| Failure::Input(e.to_string()))?;
-    }
-    let solvers = grps_estimators()?;
-    let (x, info) = py.detach(|| solvers.seven.estimate(&rows, &[], &options)).map_err(estimate_failure)?;
-    let pose = grps_pose(&x)?;
-    Ok((Pose::new(py, &pose.rotation, &pose.translation, Some(pose.scale))?, info_dict(py, &info)?))
+    (|| -> Result<_, Error> {
+        let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
+        let corrs = grps_correspondences(f, v, fp, vp)?;
+        // Degenerate data as a whole (one camera pair, a central view) is an input error, not a
+        // sample that fails to validate; a NaN is named by the estimator (correspondence, field).
+        let rows: Vec<f64> = row_numbers(&corrs).collect();
+        if corrs.len() >= 7 && rows.iter().all(|v| v.is_finite()) {
+            validate(&corrs).map_err(|e| Failure::Input(e.to_string()))?;
+        }
+        let solvers = grps_estimators()?;
+        let (x, info) = py.detach(|| solvers.seven.estimate(&rows, &[], &options)).map_err(estimate_failure)?;
+        let pose = grps_pose(&x)?;
+        Ok((Pose::new(py, &pose.rotation, &pose.translation, Some(pose.scale))?, info_dict(py, &info)?))
+    })()
+    .map_err(|e| raise(py, e))
 }

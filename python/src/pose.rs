@@ -1,6 +1,5 @@
 //! The pose a solver returns: `R`, `t`, and `s` where the problem has a scale.
 
-use crate::arrays::{matrix, vector};
 use nalgebra::{Matrix3, Vector3};
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
@@ -32,7 +31,9 @@ impl Pose {
     pub fn new(py: Python<'_>, r: &Matrix3<f64>, t: &Vector3<f64>, s: Option<f64>) -> PyResult<Self> {
         let q = nalgebra::UnitQuaternion::from_matrix(r);
         let q = if q.w < 0.0 { [-q.w, -q.i, -q.j, -q.k] } else { [q.w, q.i, q.j, q.k] };
-        Ok(Self { r: matrix(py, r)?.unbind(), t: vector(py, t.as_slice()).unbind(), s, q: vector(py, &q).unbind(), certified: None })
+        let rows: Vec<Vec<f64>> = (0..3).map(|i| (0..3).map(|j| r[(i, j)]).collect()).collect();
+        let r = PyArray2::from_vec2(py, &rows)?.unbind();
+        Ok(Self { r, t: PyArray1::from_slice(py, t.as_slice()).unbind(), s, q: PyArray1::from_slice(py, &q).unbind(), certified: None })
     }
 
     /// The same pose with the error bound of its certificate (`None`: not certified).

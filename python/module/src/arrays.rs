@@ -1,17 +1,17 @@
 //! numpy in and out. Every input goes through `numpy.ascontiguousarray(x, dtype=float64)` (so
 //! lists and integer arrays work) and is copied before the GIL is released; a wrong shape or a
-//! non-finite value is an [`InputError`](crate::errors::InputError) naming the argument, and
-//! the row and column where that helps.
+//! non-finite value is a [`Failure::Input`] (the module's `InputError`) naming the argument,
+//! and the row and column where that helps.
 
-use crate::errors::Failure;
-use nalgebra::{Matrix3, Vector3};
-use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use crate::errors::{Error, Failure};
+use nalgebra::Vector3;
+use numpy::{PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 
 /// A float64 copy of `obj` with its shape. A C-contiguous float64 array is read as it is;
 /// anything else goes through `numpy.ascontiguousarray` first.
-pub fn float_array(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(Vec<usize>, Vec<f64>)> {
+pub fn float_array(obj: &Bound<'_, PyAny>, name: &str) -> Result<(Vec<usize>, Vec<f64>), Error> {
     if let Ok(array) = obj.cast::<PyArrayDyn<f64>>() {
         if array.is_c_contiguous() {
             return copy(array, name);
@@ -26,7 +26,7 @@ pub fn float_array(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<(Vec<usize>, 
 }
 
 /// The shape and a copy of the numbers of a C-contiguous array.
-fn copy(array: &Bound<'_, PyArrayDyn<f64>>, name: &str) -> PyResult<(Vec<usize>, Vec<f64>)> {
+fn copy(array: &Bound<'_, PyArrayDyn<f64>>, name: &str) -> Result<(Vec<usize>, Vec<f64>), Error> {
     let shape = array.shape().to_vec();
     let data = array.readonly().as_slice().map_err(|e| Failure::Input(format!("`{name}`: {e}")))?.to_vec();
     Ok((shape, data))
@@ -41,7 +41,7 @@ pub fn shape_text(shape: &[usize]) -> String {
 }
 
 /// An `(N, width)` array, row after row; an error names `name` and the expected shape.
-pub fn rows_of(obj: &Bound<'_, PyAny>, name: &str, width: usize) -> PyResult<(usize, Vec<f64>)> {
+pub fn rows_of(obj: &Bound<'_, PyAny>, name: &str, width: usize) -> Result<(usize, Vec<f64>), Error> {
     let (shape, data) = float_array(obj, name)?;
     match shape.as_slice() {
         [n, w] if *w == width => Ok((*n, data)),
@@ -50,7 +50,7 @@ pub fn rows_of(obj: &Bound<'_, PyAny>, name: &str, width: usize) -> PyResult<(us
 }
 
 /// An `(N, 3)` array as 3-vectors, every value finite; an error names the argument and row.
-pub fn vectors(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<Vector3<f64>>> {
+pub fn vectors(obj: &Bound<'_, PyAny>, name: &str) -> Result<Vec<Vector3<f64>>, Error> {
     let (n, data) = rows_of(obj, name, 3)?;
     if let Some(i) = data.iter().position(|v| !v.is_finite()) {
         return Err(Failure::Input(format!("correspondence {}, field `{name}`: {} is not finite", i / 3, data[i])).into());
@@ -65,15 +65,4 @@ pub fn same_count(counts: &[(&str, usize)]) -> Result<usize, Failure> {
         Some((name, m)) => Err(Failure::Input(format!("`{name}` has {m} rows, `{first}` has {n}: one row per correspondence"))),
         None => Ok(n),
     }
-}
-
-/// A 3x3 matrix as a numpy array.
-pub fn matrix<'py>(py: Python<'py>, m: &Matrix3<f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let rows: Vec<Vec<f64>> = (0..3).map(|r| (0..3).map(|c| m[(r, c)]).collect()).collect();
-    Ok(PyArray2::from_vec2(py, &rows)?)
-}
-
-/// A vector as a numpy array.
-pub fn vector<'py>(py: Python<'py>, v: &[f64]) -> Bound<'py, PyArray1<f64>> {
-    PyArray1::from_slice(py, v)
 }

@@ -261,7 +261,9 @@ fn the_ransac_command_measures_the_estimator_and_needs_a_many_row_sampler() {
         .try_get_matches_from(["line", "--trials", "4", "--rows", "40", "--noise", "0", "--threshold", "1e-6", "--outliers", "0,0.4"])
         .expect("arguments parse");
     let args = simhc_cli::ransac::RansacArgs::from_arg_matches(&matches).expect("arguments");
-    let rows = simhc_cli::ransac::run(&Line, &solver, 4, &args).expect("runs");
+    let (file, source) = simhc_cli::ransac::declared_trials(&Line, &args).expect("samples");
+    assert!(source.contains("seed 1"), "{source}");
+    let rows = simhc_cli::ransac::estimate_declared(&Line, &solver, &file).expect("runs").rows;
     assert_eq!(rows.iter().map(|r| r.outliers).collect::<Vec<_>>(), vec![0.0, 0.4]);
     for r in &rows {
         assert_eq!(r.success_pct, 100.0, "{r:?}");

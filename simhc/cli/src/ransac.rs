@@ -19,11 +19,11 @@
 
 use crate::stats::{mean, median};
 use clap::Args;
+use nalgebra::SVector;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use simhc::layout::FieldLayout;
-use nalgebra::SVector;
 use simhc::ransac::RansacOptions;
 use simhc::solver::{DeclaredProblem, Solver};
 use simhc::ProblemLayout;
@@ -230,7 +230,8 @@ impl TrialsFile {
 
     /// Parses and checks the text of a trials file (`path` names it in errors).
     pub fn parse(text: &str, path: &str, spec: &TrialSpec) -> Result<Self, TrialsFileError> {
-        let json = |e: serde_json::Error| TrialsFileError::Json { path: path.into(), line: e.line(), column: e.column(), message: e.to_string() };
+        let json =
+            |e: serde_json::Error| TrialsFileError::Json { path: path.into(), line: e.line(), column: e.column(), message: e.to_string() };
         let bad = |trial: Option<usize>, row: Option<usize>, field: &str, message: String| TrialsFileError::Field {
             path: path.into(),
             trial,
@@ -496,7 +497,10 @@ pub struct RansacReport {
 
 /// Runs `estimate(trial, options)` on every trial of `file` (options: PoseLib's iteration
 /// defaults, the file's threshold, the trial's seed) and sums up.
-pub fn evaluate(file: &TrialsFile, mut estimate: impl FnMut(&RansacTrial, &RansacOptions) -> Result<Estimated, String>) -> Result<RansacReport, String> {
+pub fn evaluate(
+    file: &TrialsFile,
+    mut estimate: impl FnMut(&RansacTrial, &RansacOptions) -> Result<Estimated, String>,
+) -> Result<RansacReport, String> {
     let mut results = Vec::with_capacity(file.trials.len());
     for t in &file.trials {
         let options = RansacOptions { seed: t.estimator_seed, ..RansacOptions::poselib(file.threshold) };
@@ -509,7 +513,15 @@ pub fn evaluate(file: &TrialsFile, mut estimate: impl FnMut(&RansacTrial, &Ransa
                 let recall_pct = 100.0 * kept as f64 / true_count as f64;
                 TrialResult { outliers: t.outliers, success, estimate: Some(x), inlier_mask: Some(mask), recall_pct, wrong_taken, ms: e.ms }
             }
-            None => TrialResult { outliers: t.outliers, success: false, estimate: None, inlier_mask: None, recall_pct: 0.0, wrong_taken: 0, ms: e.ms },
+            None => TrialResult {
+                outliers: t.outliers,
+                success: false,
+                estimate: None,
+                inlier_mask: None,
+                recall_pct: 0.0,
+                wrong_taken: 0,
+                ms: e.ms,
+            },
         };
         results.push(result);
     }
@@ -590,8 +602,7 @@ where
         let t0 = Instant::now();
         let result = solver.estimate(&rows, &trial.globals, options);
         let ms = t0.elapsed().as_secs_f64() * 1e3;
-        let estimate =
-            result.ok().map(|(x, info)| (x.as_slice().to_vec(), problem.correct(&problem.errors(&x, &truth)), info.inlier_mask));
+        let estimate = result.ok().map(|(x, info)| (x.as_slice().to_vec(), problem.correct(&problem.errors(&x, &truth)), info.inlier_mask));
         Ok(Estimated { estimate, ms })
     })
 }

@@ -362,8 +362,8 @@ pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<(crate::ransac::TrialsFil
         let result = estimator.estimate(&corrs, options);
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let estimate = result.ok().map(|(pose, info)| {
-            let correct = rotation_error_deg(&pose.rotation, &rotation) < 2.0
-                && translation_error_pct(&pose.translation, &translation) < 5.0;
+            let correct =
+                rotation_error_deg(&pose.rotation, &rotation) < 2.0 && translation_error_pct(&pose.translation, &translation) < 5.0;
             (pose_numbers(&pose.rotation, &pose.translation), correct, info.inlier_mask)
         });
         Ok(Estimated { estimate, ms })

@@ -167,21 +167,48 @@ def grp_trial(t):
             "inlier": np.array(t["inlier"], dtype=bool)}
 
 
+def in_child(call, timeout):
+    """`call()` in a forked process (the time is measured inside it); None when it does not
+    return within `timeout` seconds (the process is then ended)."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=lambda: queue.put(call()))
+    child.start()
+    try:
+        return queue.get(timeout=timeout)
+    except Exception:  # queue.Empty: no answer in time
+        return None
+    finally:
+        child.terminate()
+        child.join()
+
+
 def on_trials_file(a):
     """PoseLib on the trials of `grp ransac grp --dump-trials FILE`, in simhc ransac's columns."""
     doc = read_simhc_trials(a.trials_file, "grp")
     threshold = doc["threshold"]
     print(f"robust_grp: {len(doc['trials'])} trials from {a.trials_file} (sampled by simhc with seed {doc['seed']}, "
           f"noise {doc['noise']} px), threshold {threshold}, min_iterations {a.min_iterations}", flush=True)
-    results = []
-    for t in doc["trials"]:
+    results, timed_out = [], []
+    for k, t in enumerate(doc["trials"]):
         tr = grp_trial(t)
-        R, tt, mask, micros, info = run_poselib(tr, threshold, a.min_iterations)
+        out = in_child(lambda: run_poselib(tr, threshold, a.min_iterations)[:4] + (None,), a.timeout)
+        if out is None:
+            # PoseLib did not return: no model, a failure, the time limit as its time.
+            timed_out.append(k)
+            results.append((t["outliers"], False, 0.0, 0, False, a.timeout * 1e3))
+            continue
+        R, tt, mask, micros, _ = out
         er, et = errors(R, tt, tr["R"], tr["t"])
         truth = tr["inlier"]
-        model = info.get("num_inliers", int(mask.sum())) > 0
+        model = mask.any()
         recall = 100 * np.sum(mask & truth) / max(truth.sum(), 1) if model else 0.0
         results.append((t["outliers"], er < 2 and et < 5, recall, int(np.sum(mask & ~truth)) if model else 0, model, micros / 1e3))
+    if timed_out:
+        print(f"PoseLib did not return within {a.timeout} s on trials {timed_out} (counted as failures without a model, "
+              f"their time as {a.timeout} s)")
     table = {}
     if a.simhc_report:
         with open(a.simhc_report) as fh:
@@ -279,6 +306,8 @@ def main():
                     help="RANSAC iterations at least, for both estimators (PoseLib's default 1000)")
     ap.add_argument("--trials-file", help="run PoseLib on the trials of `grp ransac grp --dump-trials FILE` instead")
     ap.add_argument("--simhc-report", help="with --trials-file: `grp ransac grp --trials-file FILE --json`'s output, printed beside")
+    ap.add_argument("--timeout", type=float, default=30.0,
+                    help="with --trials-file: seconds PoseLib may take on one trial (it did not return on some)")
     a = ap.parse_args()
     if a.trials_file:
         return on_trials_file(a)

@@ -6,6 +6,16 @@ process: simhc's `estimate_upnp` against PoseLib's `estimate_generalized_absolut
 
 Needs `pip install poselib numpy` and the simhc package (`cd python && maturin develop --release`).
 
+On simhc's own trials (no simhc package needed: simhc runs from its command line on the same file):
+
+    simhc ransac upnp --trials 20 --seed 1 --threshold 0.005 --noise 1 --dump-trials T.json --json > simhc.json
+    python3 bench/peers/robust_upnp.py --trials-file T.json [--simhc-report simhc.json]
+
+reads the trials `--dump-trials` wrote (correspondences `[p, f, v]`, wrong matches included,
+the true-match mask, the true rotation and translation, the threshold) and runs PoseLib on each,
+with the file's threshold; it prints PoseLib's rows in `simhc ransac`'s columns (success
+E_R < 2 deg and E_t < 5 %, as simhc's), and simhc's rows from its `--json` report beside them.
+
 Scenes (one seeded numpy generator, seed printed): a rig of 4 cameras looking along +z with
 centres in [-1, 1]^3; 100-200 points in [-4, 4]^2 x [4, 20] (rig frame), each seen by a random
 camera; the world frame is the rig's turned by any rotation and moved by up to 2 in each axis
@@ -19,15 +29,15 @@ and as a distance in the normalized image plane for PoseLib (`max_reproj_error`,
 have focal 1).
 """
 
+import json
 import math
 import time
 
 import numpy as np
 import poselib
 
-import simhc
-
-from robust_grp import FOCAL, common_arguments, errors, perturb, print_table, rotation
+from robust_grp import (FOCAL, common_arguments, compare_trials, errors, perturb, print_ransac_rows, print_table,
+                        ransac_rows, read_simhc_trials, rotation)
 
 
 def scene(rng, outliers, sigma):
@@ -55,6 +65,8 @@ def scene(rng, outliers, sigma):
 
 
 def run_simhc(tr, threshold, noise_px, seed):
+    import simhc
+
     v = tr["cams"][tr["cam"]]
     t0 = time.perf_counter()
     try:
@@ -64,8 +76,40 @@ def run_simhc(tr, threshold, noise_px, seed):
     return pose.R, pose.t, info["inlier_mask"], (time.perf_counter() - t0) * 1e6
 
 
+def simhc_trial(t):
+    """A trial of simhc's trials file as this script's scene: one camera per distinct ray origin."""
+    rows = np.array(t["rows"])
+    cams, cam = np.unique(rows[:, 6:9], axis=0, return_inverse=True)
+    return {"p": rows[:, 0:3], "f": rows[:, 3:6], "cam": cam.reshape(-1), "cams": cams, "R": np.array(t["truth"][:9]).reshape(3, 3),
+            "t": np.array(t["truth"][9:]), "inlier": np.array(t["inlier"], dtype=bool)}
+
+
+def on_trials_file(a):
+    doc = read_simhc_trials(a.trials_file, "upnp")
+    threshold = doc["threshold"]
+    print(f"robust_upnp: {len(doc['trials'])} trials from {a.trials_file} (sampled by simhc with seed {doc['seed']}, "
+          f"noise {doc['noise']} px), threshold {threshold}", flush=True)
+    results = []
+    for t in doc["trials"]:
+        tr = simhc_trial(t)
+        R, tt, mask, micros, inliers = run_poselib(tr, threshold)
+        er, et = errors(R, tt, tr["R"], tr["t"])
+        truth = tr["inlier"]
+        recall = 100 * np.sum(mask & truth) / max(truth.sum(), 1) if inliers > 0 else 0.0
+        results.append((t["outliers"], er < 2 and et < 5, recall, int(np.sum(mask & ~truth)) if inliers > 0 else 0, inliers > 0, micros / 1e3))
+    table = {}
+    if a.simhc_report:
+        with open(a.simhc_report) as fh:
+            report = json.load(fh)
+        table["simhc ransac upnp"] = report["rows"]
+    table["poselib.estimate_generalized_absolute_pose"] = ransac_rows(results)
+    print_ransac_rows(table)
+    if a.simhc_report:
+        compare_trials(report["trials"], results, "PoseLib")
+
+
 def run_poselib(tr, threshold):
-    ks = [np.flatnonzero(tr["cam"] == i) for i in range(4)]
+    ks = [np.flatnonzero(tr["cam"] == i) for i in range(len(tr["cams"]))]
     x2d = [tr["f"][k][:, :2] / tr["f"][k][:, 2:] for k in ks]
     x3d = [tr["p"][k] for k in ks]
     exts = []
@@ -76,16 +120,21 @@ def run_poselib(tr, threshold):
         exts.append(e)
     cam = {"model": "PINHOLE", "width": 2, "height": 2, "params": [1.0, 1.0, 0.0, 0.0]}
     t0 = time.perf_counter()
-    pose, info = poselib.estimate_generalized_absolute_pose(x2d, x3d, exts, [cam] * 4, {"max_reproj_error": threshold}, {})
+    pose, info = poselib.estimate_generalized_absolute_pose(x2d, x3d, exts, [cam] * len(exts), {"max_reproj_error": threshold}, {})
     micros = (time.perf_counter() - t0) * 1e6
     mask = np.zeros(len(tr["p"]), dtype=bool)
     for k, inl in zip(ks, info.get("inliers", [])):
         mask[k] = np.asarray(inl, dtype=bool)
-    return pose.R, pose.t, mask, micros
+    return pose.R, pose.t, mask, micros, info.get("num_inliers", int(mask.sum()))
 
 
 def main():
-    a = common_arguments().parse_args()
+    ap = common_arguments()
+    ap.add_argument("--trials-file", help="run PoseLib on the trials of `simhc ransac upnp --dump-trials FILE` instead")
+    ap.add_argument("--simhc-report", help="with --trials-file: `simhc ransac upnp --trials-file FILE --json`'s output, printed beside")
+    a = ap.parse_args()
+    if a.trials_file:
+        return on_trials_file(a)
     print(f"robust_upnp: seed {a.seed}, {a.trials} trials, outliers {a.outliers}, noise {a.noise_px} px", flush=True)
     rng = np.random.default_rng(a.seed)
     sigma = a.noise_px / FOCAL
@@ -97,7 +146,7 @@ def main():
         truth = tr["inlier"]
         for name, (R, t, mask, micros) in (
             ("simhc.estimate_upnp", run_simhc(tr, threshold, a.noise_px, a.seed + k)),
-            ("poselib.estimate_generalized_absolute_pose", run_poselib(tr, threshold)),
+            ("poselib.estimate_generalized_absolute_pose", run_poselib(tr, threshold)[:4]),
         ):
             er, et = errors(R, t, tr["R"], tr["t"]) if R is not None else (math.inf, math.inf)
             table[name].append((er < 2 and et < 5, np.sum(mask & truth) / truth.sum(), micros, er, et))

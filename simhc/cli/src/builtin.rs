@@ -241,7 +241,7 @@ impl Registration for Upnp {
         Some(match verb {
             Verb::Ransac => command::<crate::ransac::RansacArgs>(
                 "upnp",
-                "UPnP's robust estimator (4-correspondence samples) on scenes with wrong matches; --threshold in radians",
+                "UPnP's robust estimator (4-correspondence samples) on scenes with wrong matches; --noise in px, --threshold in radians",
             ),
             Verb::Bench => command::<UpnpBench>("upnp", "Generalized absolute pose (UPnP): the paper's Table 1"),
             Verb::Train => return train_command("upnp", "Train the UPnP regressor (defaults: the shipped weights' settings)"),
@@ -299,12 +299,8 @@ impl Registration for Upnp {
             Verb::Monodromy => MonodromyArgs::run(args, simhc_problems::start_systems::run_monodromy_upnp),
             Verb::Ransac => {
                 let a: crate::ransac::RansacArgs = parse(args)?;
-                println!(
-                    "simhc ransac upnp: {} scenes of {} correspondences per outlier ratio, seed {}, {} px, threshold {} rad, PoseLib's iteration defaults",
-                    a.trials, a.rows, a.seed, a.noise, a.threshold
-                );
-                print!("{}", crate::ransac::table(&upnp::ransac(&a)?));
-                Ok(())
+                let (file, source, report) = upnp::ransac(&a)?;
+                crate::ransac::print(&a, &file, &source, &report)
             }
         }
     }

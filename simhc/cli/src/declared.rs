@@ -326,19 +326,10 @@ where
     }
 
     fn ransac(&self, a: RansacArgs) -> Result<(), String> {
-        println!(
-            "{} ransac: {} scenes of {} rows per outlier ratio, seed {}, noise {}, threshold {}, PoseLib's iteration defaults, single thread",
-            S::NAME,
-            a.trials,
-            a.rows,
-            a.seed,
-            a.noise,
-            a.threshold
-        );
-        let solver = self.solver(&a.weights, a.noise)?;
-        let rows = crate::ransac::run(&*self.problem, &solver, S::Data::LAYOUT.rows, &a)?;
-        print!("{}", crate::ransac::table(&rows));
-        Ok(())
+        let (file, source) = crate::ransac::declared_trials(&*self.problem, &a)?;
+        let solver = self.solver(&a.weights, file.noise)?;
+        let report = crate::ransac::estimate_declared(&*self.problem, &solver, &file)?;
+        crate::ransac::print(&a, &file, &source, &report)
     }
 
     fn bench(&self, a: BenchArgs) -> Result<(), String> {

@@ -316,13 +316,33 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
 }
 
 /// `simhc ransac upnp`: [`simhc_problems::upnp::ransac::UpnpEstimator`] on scenes of the UPnP
-/// sampler (`a.rows` correspondences, `a.noise` px) in which a wrong match takes the world
-/// point of another scene; success is the paper's (E_R < 2 deg) and E_t < 5 %.
-pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<Vec<crate::ransac::RansacRow>, String> {
-    use simhc::ransac::RansacOptions;
+/// sampler (`--rows` correspondences, `--noise` px) in which a wrong match takes the world
+/// point of another scene; success is the paper's (E_R < 2 deg) and E_t < 5 %. A row of the
+/// trials is `[p, f, v]`, the truth (and an estimate) the rotation (row-major) and translation.
+pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<(crate::ransac::TrialsFile, String, crate::ransac::RansacReport), String> {
+    use crate::ransac::{Estimated, Field, Sampled, TrialSpec};
     use simhc_problems::upnp::ransac::UpnpEstimator;
-    crate::ransac::check(a, simhc_problems::upnp::geometry::UPNP_MIN_CORRESPONDENCES)?;
-    let scenes = UpnpSceneConfig { points: a.rows, noise_px: a.noise, ..UpnpSceneConfig::default() };
+    let spec = TrialSpec {
+        problem: "upnp",
+        row_fields: vec![Field::new("p", 3), Field::new("f", 3), Field::new("v", 3)],
+        global_fields: Vec::new(),
+        truth_fields: vec![Field::new("rotation", 9), Field::new("translation", 3)],
+        min_rows: simhc_problems::upnp::geometry::UPNP_MIN_CORRESPONDENCES,
+    };
+    let pose_numbers = |r: &Matrix3<f64>, t: &nalgebra::Vector3<f64>| -> Vec<f64> {
+        r.transpose().as_slice().iter().chain(t.as_slice()).copied().collect()
+    };
+    let (file, source) = crate::ransac::trials(a, &spec, |rng, rows, noise, ratio| {
+        let scenes = UpnpSceneConfig { points: rows, noise_px: noise, ..UpnpSceneConfig::default() };
+        let mut scene = scenes.sample(rng).map_err(|e| e.to_string())?;
+        let inlier = crate::ransac::draw_inliers(rng, rows, ratio);
+        for (c, _) in scene.correspondences.iter_mut().zip(&inlier).filter(|(_, keep)| !**keep) {
+            let other = UpnpSceneConfig { points: 1, ..scenes }.sample(rng).map_err(|e| e.to_string())?;
+            c.p = other.correspondences[0].p;
+        }
+        let rows = scene.correspondences.iter().flat_map(|c| c.p.iter().chain(c.f.iter()).chain(c.v.iter()).copied()).collect();
+        Ok(Sampled { rows, globals: Vec::new(), truth: pose_numbers(&scene.rotation, &scene.translation), inlier })
+    })?;
     let learned = match &a.weights {
         Some(path) => {
             let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -331,25 +351,24 @@ pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<Vec<crate::ransac::Ransac
         }
         None => UpnpLearned::shipped().map_err(|e| e.to_string())?,
     };
-    let estimator = UpnpEstimator::from_learned(learned, (8.0 * a.noise / scenes.focal_px).max(1e-6)).map_err(|e| e.to_string())?;
-    crate::ransac::rows_of(a, |rng, ratio, seed| {
-        let mut scene = scenes.sample(rng).map_err(|e| e.to_string())?;
-        let inlier = crate::ransac::draw_inliers(rng, a.rows, ratio);
-        for (c, _) in scene.correspondences.iter_mut().zip(&inlier).filter(|(_, keep)| !**keep) {
-            let other = UpnpSceneConfig { points: 1, ..scenes }.sample(rng).map_err(|e| e.to_string())?;
-            c.p = other.correspondences[0].p;
-        }
-        let options = RansacOptions { seed, ..RansacOptions::poselib(a.threshold) };
+    let focal_px = UpnpSceneConfig::default().focal_px;
+    let estimator = UpnpEstimator::from_learned(learned, (8.0 * file.noise / focal_px).max(1e-6)).map_err(|e| e.to_string())?;
+    let report = crate::ransac::evaluate(&file, |trial, options| {
+        let v3 = |s: &[f64]| nalgebra::Vector3::new(s[0], s[1], s[2]);
+        let corrs: Vec<UpnpCorrespondence> =
+            trial.rows.iter().map(|r| UpnpCorrespondence { p: v3(&r[0..3]), f: v3(&r[3..6]), v: v3(&r[6..9]) }).collect();
+        let (rotation, translation) = (Matrix3::from_row_slice(&trial.truth[..9]), v3(&trial.truth[9..]));
         let t0 = Instant::now();
-        let result = estimator.estimate(&scene.correspondences, &options);
+        let result = estimator.estimate(&corrs, options);
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let estimate = result.ok().map(|(pose, info)| {
-            let correct = rotation_error_deg(&pose.rotation, &scene.rotation) < 2.0
-                && translation_error_pct(&pose.translation, &scene.translation) < 5.0;
-            (correct, info.inlier_mask)
+            let correct =
+                rotation_error_deg(&pose.rotation, &rotation) < 2.0 && translation_error_pct(&pose.translation, &translation) < 5.0;
+            (pose_numbers(&pose.rotation, &pose.translation), correct, info.inlier_mask)
         });
-        Ok(crate::ransac::TrialOutcome { inlier, estimate, ms })
-    })
+        Ok(Estimated { estimate, ms })
+    })?;
+    Ok((file, source, report))
 }
 
 #[cfg(test)]
@@ -358,8 +377,9 @@ mod tests {
 
     #[test]
     fn the_ransac_rows_find_every_pose_and_its_inliers() {
-        let a = RansacArgs { trials: 3, seed: 5, rows: 40, noise: 0.0, outliers: vec![0.0, 0.4], threshold: 1e-4, weights: None };
-        let rows = super::ransac(&a).expect("runs");
+        let a = RansacArgs::sampled(3, 5, 40, 0.0, vec![0.0, 0.4], 1e-4);
+        let (_, _, report) = super::ransac(&a).expect("runs");
+        let rows = report.rows;
         assert_eq!(rows.len(), 2);
         for r in &rows {
             assert_eq!((r.success_pct, r.recall_pct, r.wrong_taken, r.no_model), (100.0, 100.0, 0.0, 0), "{r:?}");

@@ -261,7 +261,9 @@ fn the_ransac_command_measures_the_estimator_and_needs_a_many_row_sampler() {
         .try_get_matches_from(["line", "--trials", "4", "--rows", "40", "--noise", "0", "--threshold", "1e-6", "--outliers", "0,0.4"])
         .expect("arguments parse");
     let args = simhc_cli::ransac::RansacArgs::from_arg_matches(&matches).expect("arguments");
-    let rows = simhc_cli::ransac::run(&Line, &solver, 4, &args).expect("runs");
+    let (file, source) = simhc_cli::ransac::declared_trials(&Line, &args).expect("samples");
+    assert!(source.contains("seed 1"), "{source}");
+    let rows = simhc_cli::ransac::estimate_declared(&Line, &solver, &file).expect("runs").rows;
     assert_eq!(rows.iter().map(|r| r.outliers).collect::<Vec<_>>(), vec![0.0, 0.4]);
     for r in &rows {
         assert_eq!(r.success_pct, 100.0, "{r:?}");
@@ -273,4 +275,62 @@ fn the_ransac_command_measures_the_estimator_and_needs_a_many_row_sampler() {
     let ransac = app.command().expect("builds").find_subcommand("ransac").cloned().expect("a ransac command");
     assert!(ransac.find_subcommand("line").is_some());
     assert!(ransac.find_subcommand("nan-frame").is_none());
+}
+
+#[test]
+fn the_ransac_command_runs_the_same_on_its_dumped_trials() {
+    use clap::{Args, FromArgMatches};
+    use simhc_cli::ransac::{declared_trials, estimate_declared, RansacArgs};
+    let solver = solver();
+    let dir = std::env::temp_dir().join(format!("simhc-library-solver-ransac-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a folder");
+    let dump = dir.join("line-trials.json");
+    let dump = dump.to_str().expect("utf-8");
+    let parse = |args: &[&str]| {
+        let matches = RansacArgs::augment_args(clap::Command::new("line")).try_get_matches_from(args).expect("arguments parse");
+        RansacArgs::from_arg_matches(&matches).expect("arguments")
+    };
+    let sampled = parse(&[
+        "line",
+        "--trials",
+        "6",
+        "--rows",
+        "30",
+        "--noise",
+        "0",
+        "--threshold",
+        "1e-6",
+        "--outliers",
+        "0,0.3",
+        "--seed",
+        "8",
+        "--dump-trials",
+        dump,
+    ]);
+    let (file, _) = declared_trials(&Line, &sampled).expect("samples");
+    let on_seed = estimate_declared(&Line, &solver, &file).expect("runs");
+    let (read, source) = declared_trials(&Line, &parse(&["line", "--trials-file", dump])).expect("reads");
+    assert!(source.contains(dump) && source.contains("seed 8"), "{source}");
+    // Bit-identical numbers and the same masks, truths and seeds.
+    let bits = |f: &simhc_cli::ransac::TrialsFile| -> Vec<u64> {
+        f.trials.iter().flat_map(|t| t.rows.iter().flatten().chain(&t.truth).map(|v| v.to_bits())).collect()
+    };
+    assert_eq!(bits(&read), bits(&file));
+    assert_eq!(read, file);
+    assert_eq!(file.trials.len(), 12);
+    // The mask is the data's: a true row lies on the true line, a wrong one (another scene's) not.
+    for t in &file.trials {
+        for (row, inlier) in t.rows.iter().zip(&t.inlier) {
+            assert_eq!((t.truth[0] * row[0] + t.truth[1] - row[1]).abs() < 1e-12, *inlier, "{row:?}");
+        }
+    }
+    assert!(file.trials[6..].iter().any(|t| t.inlier.contains(&false)));
+    // The same estimates, masks and successes on the file as on the seed.
+    let on_file = estimate_declared(&Line, &solver, &read).expect("runs");
+    for (k, (a, b)) in on_seed.trials.iter().zip(&on_file.trials).enumerate() {
+        let bits = |e: &Option<Vec<f64>>| e.as_ref().map(|x| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+        assert_eq!((bits(&a.estimate), &a.inlier_mask, a.success), (bits(&b.estimate), &b.inlier_mask, b.success), "trial {k}");
+    }
+    assert!(on_seed.rows.iter().all(|r| r.success_pct == 100.0), "{:?}", on_seed.rows);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -18,7 +18,8 @@
 //!   degrees about 13 fixed axes ([`GRPS_RESTART_ANGLES_DEG`]), with least-squares `(t, s)`;
 //! - the solve settings ([`DeclaredProblem::options`], [`grps_pipeline_options`]): end points
 //!   polished by Gauss-Newton, 4 more attempts after a plausible (noisy) one;
-//! - a RANSAC sample ([`Solver::estimate`]) keeps up to 4 distinct validated end points.
+//! - a RANSAC sample ([`Solver::estimate`]) of 7 keeps up to 4 distinct validated end points
+//!   ([`sample_candidates`], [`sample_attempts`]).
 //!
 //! [`GrpsSolvers`] takes any number of correspondences from 7: more than 8 are checked as a
 //! whole, solved on 8 spread over the camera pairs ([`super::spread_first`]), refined on all
@@ -149,13 +150,36 @@ pub const GRPS_RESTART_ANGLES_DEG: [f64; 5] = [20.0, 45.0, 90.0, 135.0, 180.0];
 /// Restarts of the declared problems: 13 axes times [`GRPS_RESTART_ANGLES_DEG`].
 pub const RESTARTS: usize = 13 * GRPS_RESTART_ANGLES_DEG.len();
 
-/// Attempts of a RANSAC sample ([`DeclaredProblem::SAMPLE_ATTEMPTS`]): the solver's schedule
-/// short of the restarts, with the shipped network of one hypothesis: Gauss-Newton from the
-/// learned start (refined on all rows, then again) and from the three other starts, then a
-/// path with each simulator from each of the four. Measured on `simhc bench grps --experiment
-/// ransac --ransac-trials 100 --seed 1`: 98 % at 40 % outliers with the first 8 attempts (the
-/// paths from the first two starts only), against 99 % of the hand-wired estimator's 8.
-pub const SAMPLE_ATTEMPTS: usize = 13;
+/// Attempts of a RANSAC sample of `rows` correspondences ([`DeclaredProblem::SAMPLE_ATTEMPTS`]):
+/// the solver's schedule short of the restarts and of the minimum-norm simulator's paths, with
+/// the shipped network of one hypothesis: Gauss-Newton from the learned start (refined on all
+/// rows, then again) and from the three other starts, then the geometric simulator's path from
+/// the learned start and from the first two other starts. Measured on `simhc bench grps
+/// --experiment ransac --ransac-trials 300 --seed 1` at 40 % outliers (BENCHMARKS.md,
+/// 2026-12-05):
+/// - 7 (minimal): 99.7 % with these 8 attempts, 99.3 % with 7, 99.7 % with 9; time a call 115,
+///   82 and 138 ms;
+/// - 8 (`--ransac-sample 8`, 100 trials): the 5 Gauss-Newton attempts only, 97 % at 41 ms a
+///   call against 98 % at 290 ms with 8.
+pub const fn sample_attempts(rows: usize) -> usize {
+    if rows == 7 {
+        8
+    } else {
+        5
+    }
+}
+
+/// Distinct validated end points a RANSAC sample of `rows` correspondences may give
+/// ([`DeclaredProblem::SAMPLE_CANDIDATES`]): with 7 (minimal) every real root fits the sample
+/// exactly and the consensus picks among up to 4 (99.7 % at 40 % outliers, 97 % with one);
+/// with 8 only the true pose fits them all, so the first is the model and the search stops.
+pub const fn sample_candidates(rows: usize) -> usize {
+    if rows == 7 {
+        4
+    } else {
+        1
+    }
+}
 
 /// The noise (pixels at 800 px) of the validator of a RANSAC sample's pose: plausible up to an
 /// angular residual of `0.02` (`10 noise / 800`), two points behind a camera allowed; the
@@ -369,13 +393,10 @@ macro_rules! grps_problem {
             const REFINES: bool = true;
             /// 13 axes times [`GRPS_RESTART_ANGLES_DEG`].
             const RESTARTS: usize = RESTARTS;
-            /// Up to 4 distinct validated end points per RANSAC sample: with 7 correspondences
-            /// every real root fits the sample exactly, and the consensus picks (measured on
-            /// `simhc bench grps --experiment ransac` at 40 % outliers: 99.7 % with 4 hypotheses
-            /// a sample, 97 % with one).
-            const SAMPLE_CANDIDATES: usize = 4;
-            /// The learned start's and the other starts' Gauss-Newton, then the first paths.
-            const SAMPLE_ATTEMPTS: usize = SAMPLE_ATTEMPTS;
+            /// [`sample_candidates`].
+            const SAMPLE_CANDIDATES: usize = sample_candidates($rows);
+            /// [`sample_attempts`].
+            const SAMPLE_ATTEMPTS: usize = sample_attempts($rows);
 
             fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, $np>, Unknowns) {
                 let config = GrpsSceneConfig { points: $rows, noise_px: noise, ..GrpsSceneConfig::default() };

@@ -13,7 +13,7 @@ use simhc::ransac::RansacOptions;
 use simhc::solver::{other_provider, provider, restart_provider};
 use simhc::solver::{DeclaredProblem, FirstRowsError, LearnedHypotheses, SolveError, Solver};
 use simhc_problems::grps::declared::{
-    grps_pipeline_options, params_of, Grps7Problem, GrpsSolvers, GrpsSolversError, RANSAC_NOISE_PX, RESTARTS, SAMPLE_ATTEMPTS,
+    grps_pipeline_options, params_of, sample_attempts, sample_candidates, GrpsSolvers, GrpsSolversError, RANSAC_NOISE_PX, RESTARTS,
 };
 use simhc_problems::grps::learned::GRPS_WEIGHTS;
 use simhc_problems::grps::pose::GrpsPose;
@@ -404,8 +404,8 @@ pub fn bench(trials: &[GrpsScene], seed: u64, source: String, args: &GrpsArgs, p
         ransac: Vec::new(),
         ransac_sample: args.ransac_sample,
         ransac_lo: args.ransac_lo,
-        ransac_hypotheses: <Grps7Problem as DeclaredProblem<8, 8, 84, { Grps7::NC }, 84>>::SAMPLE_CANDIDATES,
-        ransac_attempts: SAMPLE_ATTEMPTS,
+        ransac_hypotheses: sample_candidates(args.ransac_sample),
+        ransac_attempts: sample_attempts(args.ransac_sample),
         figures: Vec::new(),
     };
     if args.runs(Experiment::Stability) {
@@ -895,7 +895,7 @@ pub fn text(report: &BenchReport) -> String {
     }
     if !report.ransac.is_empty() {
         out.push_str(&format!(
-            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, the first {} attempts of the solver's schedule and <= {} validated roots per sample, <= 200 iterations, 99 % confidence, threshold 0.01 on the angular residual{}:\n",
+            "\nRANSAC: 200 correspondences, 5 cameras per view, noise U[-2, 2] px at f = 800, samples of {}, the first {} attempts of the solver's schedule (no minimum-norm paths) and <= {} validated roots per sample, <= 200 iterations, 99 % confidence, threshold 0.01 on the angular residual{}:\n",
             report.ransac_sample,
             report.ransac_attempts,
             report.ransac_hypotheses,

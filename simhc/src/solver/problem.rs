@@ -59,8 +59,8 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// consensus then picks the true one among them.
     const SAMPLE_CANDIDATES: usize = 1;
     /// Attempts a RANSAC sample runs: the first this many of the solver's schedule
-    /// ([`super::Solver::schedule`]; the fallback never). Default `1`: Gauss-Newton from the
-    /// learned start ([`super::sample_schedule`]).
+    /// ([`super::Solver::schedule`]) short of the paths with the other simulators (the fallback
+    /// never). Default `1`: Gauss-Newton from the learned start ([`super::sample_schedule`]).
     const SAMPLE_ATTEMPTS: usize = 1;
 
     /// A scene with noise of size `noise` (the problem's unit, for example pixels): the

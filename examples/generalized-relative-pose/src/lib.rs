@@ -252,20 +252,11 @@ fn sampson_angle(r: &Matrix3<f64>, t: &Vector3<f64>, [f, v, fp, vp]: &[Vector3<f
     }
 }
 
-/// What [`Coplanarity`] finds of an end point (`solve` prints it as a JSON object of these
-/// names). Ordered field by field: fewer rays met behind a rig first, then the smaller angle.
-#[derive(Debug, Clone, Copy, PartialEq, PartialOrd, serde::Serialize)]
-pub struct CoplanarityCheck {
-    /// Correspondences whose rays meet behind a rig (or never meet: NaN).
-    pub behind: usize,
-    /// Largest angle (radians) between a rig-1 bearing and the plane of its match.
-    pub max_angle: f64,
-}
-
 impl Validator<Params, { grp::NX }> for Coplanarity {
-    type Check = CoplanarityCheck;
+    /// (correspondences met behind a rig, largest angle to the plane in radians)
+    type Check = (usize, f64);
 
-    fn check(&self, p: &Params, x: &Unknowns) -> CoplanarityCheck {
+    fn check(&self, p: &Params, x: &Unknowns) -> (usize, f64) {
         let (r, t) = pose(x);
         let (mut behind, mut worst) = (0, 0.0f64);
         for i in 0..7 {
@@ -285,18 +276,18 @@ impl Validator<Params, { grp::NX }> for Coplanarity {
             }
             worst = if angle.is_nan() { f64::INFINITY } else { worst.max(angle) };
         }
-        CoplanarityCheck { behind, max_angle: worst }
+        (behind, worst)
     }
 
-    fn verdict(&self, c: &CoplanarityCheck) -> Verdict {
-        if c.behind == 0 && c.max_angle <= self.tolerance {
+    fn verdict(&self, c: &(usize, f64)) -> Verdict {
+        if c.0 == 0 && c.1 <= self.tolerance {
             Verdict::Accept
         } else {
             Verdict::Reject
         }
     }
 
-    fn better(&self, a: &CoplanarityCheck, b: &CoplanarityCheck) -> bool {
+    fn better(&self, a: &(usize, f64), b: &(usize, f64)) -> bool {
         a < b
     }
 }

@@ -217,10 +217,11 @@ fn solve_reads_a_file_and_says_where_bad_input_is() {
     let named =
         origin["start"].as_str().is_some_and(|s| s.starts_with("learned") || s.starts_with("restart")) && origin["method"].is_string();
     assert!(named || origin["fallback"].is_u64(), "{origin}");
-    // The validator's figures as an object of named numbers: exact data, no ray behind a rig.
+    // The validator's check as JSON (the example's is the tuple `(behind, largest angle)`):
+    // exact data, no ray behind a rig.
     let check = &doc["check"];
-    assert_eq!(check["behind"].as_u64(), Some(0), "{out}");
-    assert!(check["max_angle"].as_f64().is_some_and(|a| (0.0..1e-7).contains(&a)), "{out}");
+    assert_eq!(check[0].as_u64(), Some(0), "{out}");
+    assert!(check[1].as_f64().is_some_and(|a| (0.0..1e-7).contains(&a)), "{out}");
 
     let bad = dir.join("bad.json");
     std::fs::write(&bad, input(&p, Some((3, "[0.1, 0.2]")))).expect("write");

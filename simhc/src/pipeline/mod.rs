@@ -99,7 +99,8 @@ pub enum Verdict {
 /// Does an end point explain all the data?
 pub trait Validator<D: ?Sized, const NX: usize> {
     /// The figures of one check (residuals, violated inequalities). `Serialize`: `solve`
-    /// prints them as JSON with the solution (a struct as an object of its named figures).
+    /// prints them as JSON with the solution; a number or a tuple of numbers needs nothing
+    /// more, a struct derives `serde::Serialize` (an object of its named figures).
     type Check: Copy + Debug + PartialEq + serde::Serialize;
     /// Checks `x` on `data`.
     fn check(&self, data: &D, x: &SVector<f64, NX>) -> Self::Check;

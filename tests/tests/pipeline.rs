@@ -67,7 +67,7 @@ impl TargetParameters<Data, 18> for Target {
 }
 
 /// The largest angle between a bearing and its point under the pose, over all four.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 struct Angle(f64);
 
 struct AngleValidator {

@@ -66,6 +66,15 @@ fn the_sampler_and_the_frame_change_keep_the_truth_a_solution() {
     }
 }
 
+/// The shipped start system with its solutions removed, as JSON: a start system that is read
+/// and used, but finds nothing.
+fn empty_start_system() -> String {
+    let mut empty = simhc::start_system::StartSystemFile::from_json(START_SYSTEM).expect("parses");
+    empty.solutions.clear();
+    empty.count = 0;
+    empty.to_json()
+}
+
 /// The bootstrap without a rebuild: a start system read at run time is the solver's all-roots
 /// fallback (`InstanceSolver::with_fallback`, the commands' `--start-system`), not the one built
 /// in: with it the fallback alone solves, with a start system of no solutions it finds nothing.
@@ -77,10 +86,7 @@ fn a_start_system_read_at_run_time_is_the_fallback() {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let fallback = |json: &str| AllRootsFallback::new(Grp6::square_subsystem(Some(json), Some(64)).expect("parses"));
     let full = Solver::new(GenRelPose::new()).expect("shipped").with_fallback(fallback(START_SYSTEM));
-    let mut empty = simhc::start_system::StartSystemFile::from_json(START_SYSTEM).expect("parses");
-    empty.solutions.clear();
-    empty.count = 0;
-    let none = Solver::new(GenRelPose::new()).expect("shipped").with_fallback(fallback(&empty.to_json()));
+    let none = Solver::new(GenRelPose::new()).expect("shipped").with_fallback(fallback(&empty_start_system()));
     assert!(full.has_fallback() && none.has_fallback());
     let mut solved = 0;
     for trial in 0..6 {
@@ -156,11 +162,8 @@ fn bench_holds_on_the_sampler_in_random_frames_and_permuted() {
 fn bench_reads_the_start_system_at_run_time() {
     let dir = std::env::temp_dir().join(format!("grp-start-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
-    let mut empty = simhc::start_system::StartSystemFile::from_json(START_SYSTEM).expect("parses");
-    empty.solutions.clear();
-    empty.count = 0;
     let empty_path = dir.join("empty.json");
-    std::fs::write(&empty_path, empty.to_json()).expect("write");
+    std::fs::write(&empty_path, empty_start_system()).expect("write");
     let shipped = concat!(env!("CARGO_MANIFEST_DIR"), "/data/grp6_start.json");
     for (file, expected) in [(shipped, 100.0), (empty_path.to_str().expect("utf-8"), 0.0)] {
         let args = ["bench", "grp", "--trials", "4", "--seed", "5", "--all-roots", "4", "--json", "--start-system", file];
@@ -214,6 +217,11 @@ fn solve_reads_a_file_and_says_where_bad_input_is() {
     let named =
         origin["start"].as_str().is_some_and(|s| s.starts_with("learned") || s.starts_with("restart")) && origin["method"].is_string();
     assert!(named || origin["fallback"].is_u64(), "{origin}");
+    // The validator's check as JSON (the example's is the tuple `(behind, largest angle)`):
+    // exact data, no ray behind a rig.
+    let check = &doc["check"];
+    assert_eq!(check[0].as_u64(), Some(0), "{out}");
+    assert!(check[1].as_f64().is_some_and(|a| (0.0..1e-7).contains(&a)), "{out}");
 
     let bad = dir.join("bad.json");
     std::fs::write(&bad, input(&p, Some((3, "[0.1, 0.2]")))).expect("write");

@@ -17,7 +17,7 @@ use nalgebra::SVector;
 use simhc::pipeline::{Validator, Verdict};
 
 /// How well an end point explains the correspondences.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Validation {
     /// Largest angular residual over the correspondences ([`angular_residual`]).
     pub max_angle: f64,

@@ -38,7 +38,7 @@ impl UpnpPose {
 }
 
 /// How well a pose explains the correspondences.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct UpnpValidation {
     /// Largest angle (radians) between a bearing `f_i` and `R p_i + t - v_i`.
     pub max_angle: f64,

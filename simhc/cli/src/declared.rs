@@ -467,13 +467,14 @@ where
         };
         match solver.solve(&p) {
             Ok(s) => print_json(&serde_json::json!({
-                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": origin_json(&solver, s.origin), "attempts": s.attempts, "check": format!("{:?}", s.check), "certificate": crate::certificates::json(&s.certified),
+                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": origin_json(&solver, s.origin)?, "attempts": s.attempts, "check": to_json(&s.check)?, "certificate": crate::certificates::json(&s.certified),
             })),
             Err(SolveError::NotValidated { best, check, attempts }) => Err(format!(
-                "{}: no solution validated after {attempts} attempts (noise {}; pass --noise for noisy data); best, flagged, NOT a solution: {} (check {check:?})",
+                "{}: no solution validated after {attempts} attempts (noise {}; pass --noise for noisy data); best, flagged, NOT a solution: {} (check {})",
                 a.input.display(),
                 a.noise,
                 unknowns(&best),
+                to_json(&check)?,
             )),
             Err(e) => Err(format!("{}: {e}", a.input.display())),
         }
@@ -481,21 +482,28 @@ where
 }
 
 /// What produced a solution, as JSON: `{"start": "learned 0", "method": "GaussNewton"}` for
-/// an attempt (the start by name, [`simhc::solver::StartId`]), `{"fallback": k}` for the
-/// all-roots fallback's candidate `k`.
+/// an attempt (the start by name, [`simhc::solver::StartId`]; the method as
+/// [`simhc::pipeline::Method`] serializes), `{"fallback": k}` for the all-roots fallback's
+/// candidate `k`.
 fn origin_json<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>(
     solver: &Solver<S, NX, NF, NP, NC, ND>,
     origin: Origin,
-) -> serde_json::Value
+) -> Result<serde_json::Value, String>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
-    match origin {
+    Ok(match origin {
         Origin::Path { provider, method } => {
-            serde_json::json!({ "start": solver.start_of(provider).to_string(), "method": format!("{method:?}") })
+            serde_json::json!({ "start": solver.start_of(provider).to_string(), "method": to_json(&method)? })
         }
         Origin::Fallback { candidate } => serde_json::json!({ "fallback": candidate }),
-    }
+    })
+}
+
+/// `value` as JSON. Fails only for a user's `Serialize` that fails (a map with non-string
+/// keys), which is then an error of the command, not a panic.
+fn to_json<T: Serialize>(value: &T) -> Result<serde_json::Value, String> {
+    serde_json::to_value(value).map_err(|e| format!("printing the solve as JSON: {e}"))
 }
 
 /// The rows of `p` in a random order (globals stay).

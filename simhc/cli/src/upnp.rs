@@ -294,10 +294,10 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
     let (start, method) = match origin {
         Some(Origin::Path { provider, method }) => {
             let start = if provider == LINEAR { "linear" } else { "learned" };
-            (start, format!("{method:?}"))
+            (start, serde_json::to_value(method).map_err(|e| e.to_string())?)
         }
-        Some(Origin::Fallback { .. }) => ("all roots", "AllRoots".to_string()),
-        None => ("none validated", "-".to_string()),
+        Some(Origin::Fallback { .. }) => ("all roots", serde_json::json!("AllRoots")),
+        None => ("none validated", serde_json::json!("-")),
     };
     let r = pose.rotation;
     Ok(serde_json::json!({

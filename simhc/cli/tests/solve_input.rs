@@ -83,7 +83,8 @@ fn solve_grps_says_when_the_data_is_minimal() {
 }
 
 /// A declared problem's answer in JSON: a scalar unknown (GRPS's scale) is a number, a vector
-/// an array, and the origin names the start and the method (or the fallback's candidate).
+/// an array, the origin names the start and the method (or the fallback's candidate), and the
+/// validator's check is an object of its named figures.
 #[test]
 fn solve_of_a_declared_problem_prints_json_values() {
     let path = write("grps8_declared.json", &grps_input(8, 5));
@@ -95,7 +96,15 @@ fn solve_of_a_declared_problem_prints_json_values() {
     assert!(s.is_finite() && s > 0.0, "{out}");
     assert_eq!(doc["unknowns"]["t"].as_array().map(|t| t.len()), Some(3), "{out}");
     let origin = &doc["origin"];
-    assert!((origin["start"].is_string() && origin["method"].is_string()) || origin["fallback"].is_u64(), "{out}");
+    // A method is its name, or `{"OtherSimulatorHc": k}` for another simulator.
+    let method = &origin["method"];
+    assert!(
+        (origin["start"].is_string() && (method.is_string() || method["OtherSimulatorHc"].is_u64())) || origin["fallback"].is_u64(),
+        "{out}"
+    );
+    let check = &doc["check"];
+    assert!(check["max_angle"].as_f64().is_some_and(|a| (0.0..1e-6).contains(&a)), "{out}");
+    assert_eq!((check["behind"].as_u64(), check["positive_scale"].as_bool()), (Some(0), Some(true)), "{out}");
     // Noise-free data: the answer is certified on 8 of the 9 equations.
     let certificate = &doc["certificate"];
     assert_eq!(certificate["certified"], serde_json::Value::Bool(true), "{out}");

@@ -98,8 +98,10 @@ pub enum Verdict {
 
 /// Does an end point explain all the data?
 pub trait Validator<D: ?Sized, const NX: usize> {
-    /// The figures of one check (residuals, violated inequalities).
-    type Check: Copy + Debug + PartialEq;
+    /// The figures of one check (residuals, violated inequalities). `Serialize`: `solve`
+    /// prints them as JSON with the solution; a number or a tuple of numbers needs nothing
+    /// more, a struct derives `serde::Serialize` (an object of its named figures).
+    type Check: Copy + Debug + PartialEq + serde::Serialize;
     /// Checks `x` on `data`.
     fn check(&self, data: &D, x: &SVector<f64, NX>) -> Self::Check;
     /// The verdict of a check.
@@ -144,8 +146,9 @@ pub struct StageTimes {
     pub fallback: Duration,
 }
 
-/// How an attempt goes from its start to an end point.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// How an attempt goes from its start to an end point. In JSON: the variant's name, and
+/// `{"OtherSimulatorHc": k}` for another simulator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub enum Method {
     /// One Simulator HC path (the paper's method) with the pipeline's simulator.
     #[default]

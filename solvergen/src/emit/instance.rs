@@ -6,7 +6,7 @@
 use super::data_structs::field_layouts;
 use super::render::{render_scalar, Outputs};
 use super::row_kernels::{LaneImpls, LanedCoefficientForm, RowKernels};
-use super::{camel, n};
+use super::{instance_names, n};
 use crate::dag::Dag;
 use crate::decl::Declaration;
 use crate::lower::Instance;
@@ -28,11 +28,9 @@ pub(super) fn instance(decl: &Declaration, lowered: &Lowered, expanded: &Expande
     let inst = &expanded.instance;
     let base = decl.module.ident.to_string();
     let has_rows = !decl.row_fields.is_empty();
-    let (type_name, problem_name) = if has_rows {
-        (format_ident!("{}{}", camel(&base), inst.rows), format!("{base}{}", inst.rows))
-    } else {
-        (format_ident!("{}", camel(&base)), base.clone())
-    };
+    let names = instance_names(decl, inst.rows);
+    let type_name = format_ident!("{}", names.instance);
+    let problem_name = if has_rows { format!("{base}{}", inst.rows) } else { base.clone() };
     let (nx_v, nf_v, np_v) = (inst.vars.nx(), inst.equations.len(), inst.vars.np());
     let (nx, nf, np) = (n(nx_v), n(nf_v), n(np_v));
     let n_rows = n(inst.rows);
@@ -135,10 +133,9 @@ pub(super) fn instance(decl: &Declaration, lowered: &Lowered, expanded: &Expande
     let eqs_per_row = n(inst.eqs_per_row);
     // Names of this instance's sizes, so that user code writes no number (`Params7`,
     // `AllRoots7`, `SquareSubsystem6`; without rows, no suffix).
-    let suffix = if has_rows { inst.rows.to_string() } else { String::new() };
-    let params_alias = format_ident!("Params{suffix}");
-    let all_roots_alias = format_ident!("AllRoots{suffix}");
-    let subsystem_alias = format_ident!("SquareSubsystem{suffix}");
+    let params_alias = format_ident!("{}", names.params);
+    let all_roots_alias = format_ident!("{}", names.all_roots);
+    let subsystem_alias = format_ident!("{}", names.square_subsystem);
     let params_doc = format!(" The parameter vector of [`{type_name}`] ({np_v} numbers).");
     let all_roots_doc = format!(" An all-roots fallback for data of [`{type_name}`]: `simhc::solver::AllRoots` with its sizes.");
     let subsystem_doc = format!(" All roots of [`{type_name}`] by a start system: `simhc::solver::SquareSubsystem` with its sizes.");

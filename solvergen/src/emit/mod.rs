@@ -43,18 +43,89 @@ fn n(v: usize) -> Literal {
     Literal::usize_unsuffixed(v)
 }
 
+/// The names of the module's own items, whatever the declaration. [`module`] defines its items
+/// by these names and [`emitted_names`] reserves them, so that the check cannot miss one.
+pub(crate) struct ModuleNames {
+    /// The unknown count.
+    pub nx: &'static str,
+    /// The unknowns as a vector.
+    pub unknown_vector: &'static str,
+    /// `simhc::solver::CanonicalFrame` with the problem's sizes.
+    pub canonical_frame: &'static str,
+    /// `simhc::solver::Refinement` with the problem's sizes.
+    pub refinement: &'static str,
+    /// The unknowns' struct.
+    pub unknowns: &'static str,
+    /// One row's struct (a declaration with rows).
+    pub row: &'static str,
+    /// The globals' struct (a declaration with globals).
+    pub globals: &'static str,
+    /// The row kernels shared by the instances (two or more rows).
+    pub row_kernels: &'static str,
+}
+
+pub(crate) const MODULE_NAMES: ModuleNames = ModuleNames {
+    nx: "NX",
+    unknown_vector: "UnknownVector",
+    canonical_frame: "CanonicalFrame",
+    refinement: "Refinement",
+    unknowns: "Unknowns",
+    row: "Row",
+    globals: "Globals",
+    row_kernels: "__SimhcRowKernels",
+};
+
+impl ModuleNames {
+    /// Every name, the ones a declaration does not use included.
+    fn all(&self) -> [&'static str; 8] {
+        // Destructured without `..`: a new name is a compile error here until it is listed.
+        let ModuleNames { nx, unknown_vector, canonical_frame, refinement, unknowns, row, globals, row_kernels } = *self;
+        [nx, unknown_vector, canonical_frame, refinement, unknowns, row, globals, row_kernels]
+    }
+}
+
+/// The names of one instance's items (its unit type and its size aliases): what
+/// `instance::instance` defines and [`emitted_names`] reserves.
+pub(crate) struct InstanceNames {
+    /// The unit type (`Grp7`; without rows, the module's name in `CamelCase`).
+    pub instance: String,
+    /// The parameter vector (`Params7`).
+    pub params: String,
+    /// The all-roots fallback's trait object (`AllRoots7`).
+    pub all_roots: String,
+    /// The start-system subsystem, emitted for a square instance only (`SquareSubsystem7`).
+    pub square_subsystem: String,
+}
+
+impl InstanceNames {
+    /// Every name, the ones an instance does not define included.
+    fn all(self) -> [String; 4] {
+        // Destructured without `..`: a new name is a compile error here until it is listed.
+        let InstanceNames { instance, params, all_roots, square_subsystem } = self;
+        [instance, params, all_roots, square_subsystem]
+    }
+}
+
+/// The names of the instance of `rows` rows: suffixed by the row count (`Grp7`, `Params7`),
+/// without a suffix for a declaration without rows (`rows` then is 0 and not written).
+pub(crate) fn instance_names(decl: &Declaration, rows: usize) -> InstanceNames {
+    let suffix = if decl.row_fields.is_empty() { String::new() } else { rows.to_string() };
+    InstanceNames {
+        instance: format!("{}{suffix}", camel(&decl.module.ident.to_string())),
+        params: format!("Params{suffix}"),
+        all_roots: format!("AllRoots{suffix}"),
+        square_subsystem: format!("SquareSubsystem{suffix}"),
+    }
+}
+
 /// The names the expansion defines in the module: the instances, their size aliases and the
 /// module's own (a passthrough item of the same name is an error).
 pub fn emitted_names(decl: &Declaration) -> Vec<String> {
-    let base = camel(&decl.module.ident.to_string());
-    let mut names: Vec<String> = ["NX", "UnknownVector", "CanonicalFrame", "Refinement", "Unknowns", "Row", "Globals", "__SimhcRowKernels"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-    let suffixes: Vec<String> =
-        if decl.row_fields.is_empty() { vec![String::new()] } else { decl.rows.iter().map(|(r, _)| r.to_string()).collect() };
-    for s in suffixes {
-        names.extend([format!("{base}{s}"), format!("Params{s}"), format!("AllRoots{s}"), format!("SquareSubsystem{s}")]);
+    let mut names: Vec<String> = MODULE_NAMES.all().iter().map(|s| s.to_string()).collect();
+    // The row counts of the instances, as `crate::Lowered::new` makes them.
+    let counts: Vec<usize> = if decl.row_fields.is_empty() { vec![0] } else { decl.rows.iter().map(|&(r, _)| r).collect() };
+    for rows in counts {
+        names.extend(instance_names(decl, rows).all());
     }
     names
 }
@@ -67,16 +138,17 @@ pub fn module(decl: &Declaration, lowered: &Lowered) -> TokenStream {
     let vis = &m.vis;
     let ident = &m.ident;
     let passthrough = &decl.passthrough;
-    let unknowns = data_structs::data_struct(&format_ident!("Unknowns"), " The unknowns of the problem.", &decl.unknowns);
+    let names = &MODULE_NAMES;
+    let unknowns = data_structs::data_struct(&format_ident!("{}", names.unknowns), " The unknowns of the problem.", &decl.unknowns);
     let rows = if decl.row_fields.is_empty() {
         quote!()
     } else {
-        data_structs::data_struct(&format_ident!("Row"), " Parameters of one correspondence (row).", &decl.row_fields)
+        data_structs::data_struct(&format_ident!("{}", names.row), " Parameters of one correspondence (row).", &decl.row_fields)
     };
     let globals = if decl.globals.is_empty() {
         quote!()
     } else {
-        data_structs::data_struct(&format_ident!("Globals"), " Parameters shared by all rows.", &decl.globals)
+        data_structs::data_struct(&format_ident!("{}", names.globals), " Parameters shared by all rows.", &decl.globals)
     };
     // Row kernels depend on the declaration only: emitted once for all instances.
     let mut kernels: Vec<TokenStream> = Vec::new();
@@ -94,30 +166,40 @@ pub fn module(decl: &Declaration, lowered: &Lowered) -> TokenStream {
             items.items
         })
         .collect();
+    // The definitions below take their names from `MODULE_NAMES`; the code that only refers to
+    // them (`&Unknowns`, `__SimhcRowKernels::__row_residual`) writes them out, and a mismatch
+    // does not compile (every snapshot and `generated/` file is compiled).
     let kernels = if kernels.is_empty() {
         quote!()
     } else {
+        let row_kernels = format_ident!("{}", names.row_kernels);
         quote! {
             /// Row kernels shared by the instances (see `simhc::lanes`).
             #[doc(hidden)]
             #[derive(Debug, Clone, Copy)]
-            pub struct __SimhcRowKernels;
+            pub struct #row_kernels;
             #[allow(dead_code)]
-            impl __SimhcRowKernels {
+            impl #row_kernels {
                 #(#kernels)*
             }
         }
     };
     let nx = n(decl.unknowns.iter().map(|f| f.shape.scalar_count()).sum());
+    let (nx_name, unknown_vector, canonical_frame, refinement) = (
+        format_ident!("{}", names.nx),
+        format_ident!("{}", names.unknown_vector),
+        format_ident!("{}", names.canonical_frame),
+        format_ident!("{}", names.refinement),
+    );
     let sizes = quote! {
         /// Number of unknown scalars (every instance's `NX`).
-        pub const NX: usize = #nx;
+        pub const #nx_name: usize = #nx;
         /// The unknowns as a vector, in layout order.
-        pub type UnknownVector = ::simhc::__private::nalgebra::SVector<f64, NX>;
+        pub type #unknown_vector = ::simhc::__private::nalgebra::SVector<f64, #nx_name>;
         /// A canonical frame of this problem's unknowns (`simhc::solver::CanonicalFrame`).
-        pub type CanonicalFrame = ::simhc::solver::CanonicalFrame<NX>;
+        pub type #canonical_frame = ::simhc::solver::CanonicalFrame<#nx_name>;
         /// What a refinement on all rows did (`simhc::solver::Refinement`).
-        pub type Refinement = ::simhc::solver::Refinement<NX>;
+        pub type #refinement = ::simhc::solver::Refinement<#nx_name>;
     };
     quote! {
         #(#attrs)*

@@ -1,5 +1,5 @@
 //! Bad input never panics or hangs (issue 43, deliverable 7): the library solvers' entry points
-//! (`solve`, `estimate`) and the JSON readers on NaN, infinities, 1e308, subnormals, zeros,
+//! (`solve`, `estimate`, `solve_rows`) and the JSON readers on NaN, infinities, 1e308, subnormals, zeros,
 //! repeated rows, wrong lengths, and 0 / 1 / few / 10^4 correspondences. Every case ends in a
 //! typed error or an answer (validated, or flagged by the error), never a panic; an answer that
 //! comes back `Ok` from garbage must still pass the solver's own validation on the data it was
@@ -118,6 +118,12 @@ proptest! {
             let check = Validator::<[GrpsCorrespondence], 8>::check(v, &corrs[..], &s.x);
             prop_assert_eq!(Validator::<[GrpsCorrespondence], 8>::verdict(v, &check), Verdict::Accept);
         }
+        // The row-wise solver of many rows (`Solver::solve_rows`) on the same rows: an answer
+        // of all of them, or a typed error.
+        let rows: Vec<f64> = corrs.iter().flat_map(|c| [c.f, c.v, c.fp, c.vp]).flat_map(|v| [v.x, v.y, v.z]).collect();
+        if let Ok(s) = grps().eight.solve_rows(&rows, &[]) {
+            prop_assert_eq!(s.rows, corrs.len());
+        }
         if n % 100 == 0 {
             println!("grps: {n} cases");
         }
@@ -179,6 +185,8 @@ fn ten_thousand_correspondences_end() {
     let rows: Vec<f64> = (0..10_000 * 12).map(|i| ((i % 12) as f64 * 0.37).sin()).collect();
     let _ = grps().eight.estimate(&rows, &[], &options());
     assert!(grps().eight.estimate(&rows[..13], &[], &options()).is_err(), "13 numbers are not whole rows");
-    tried += 2;
+    let _ = grps().eight.solve_rows(&rows, &[]);
+    assert!(grps().eight.solve_rows(&rows[..13], &[]).is_err(), "13 numbers are not whole rows");
+    tried += 4;
     println!("10^4 correspondences: {tried} calls, each ended");
 }

@@ -177,17 +177,33 @@ pub fn parse_trials<T: TrialFields>(text: &str) -> Result<Vec<T>, InputError> {
 /// of `r` rows of `c` numbers (`Matrix(r, c)`), the full symmetric `n x n` matrix (`Sym(n)`;
 /// its upper triangle is used, and an asymmetric one is rejected).
 pub fn parse_layout_params(layout: &Layout, text: &str) -> Result<Vec<f64>, InputError> {
+    let (mut p, globals) = read_layout(layout, text, false)?;
+    p.extend(globals);
+    Ok(p)
+}
+
+/// [`parse_layout_params`] for at least `layout.rows` correspondences (a solve of more rows than
+/// the data instance has, `simhc::solver::Solver::solve_rows`): the row numbers, row after row
+/// in the layout's order, and the global numbers apart.
+pub fn parse_layout_rows(layout: &Layout, text: &str) -> Result<(Vec<f64>, Vec<f64>), InputError> {
+    read_layout(layout, text, true)
+}
+
+/// The row numbers and the global numbers of `text`: exactly `layout.rows` correspondences, or
+/// at least that many when `more` is set.
+fn read_layout(layout: &Layout, text: &str, more: bool) -> Result<(Vec<f64>, Vec<f64>), InputError> {
     let doc = parse(text)?;
     let root = Location::default();
     let map = doc.as_object().ok_or_else(|| shape(root.clone(), "an object with `correspondences` and `globals`", &doc))?;
     check_fields(map, &["correspondences", "globals"], &root)?;
-    let mut p = Vec::with_capacity(layout.param_len());
+    let mut p = Vec::with_capacity(layout.rows * layout.per_row);
     if layout.rows > 0 {
         let list = map.get("correspondences").ok_or(InputError::Missing { at: root.clone(), field: "correspondences" })?;
         let at = Location { field: Some("correspondences"), ..root.clone() };
         let items = list.as_array().ok_or_else(|| shape(at.clone(), "an array of correspondences", list))?;
-        if items.len() != layout.rows {
-            return Err(InputError::Shape { at, expected: format!("{} correspondences", layout.rows), got: format!("{}", items.len()) });
+        if items.len() != layout.rows && !(more && items.len() > layout.rows) {
+            let expected = format!("{}{} correspondences", if more { "at least " } else { "" }, layout.rows);
+            return Err(InputError::Shape { at, expected, got: format!("{}", items.len()) });
         }
         let fields: Vec<&str> = layout.row.iter().map(|f| f.name).collect();
         for (i, item) in items.iter().enumerate() {
@@ -206,6 +222,7 @@ pub fn parse_layout_params(layout: &Layout, text: &str) -> Result<Vec<f64>, Inpu
             expected: "`globals` (this problem has no rows)".into(),
         });
     }
+    let mut g = Vec::with_capacity(layout.globals_len());
     if !layout.globals.is_empty() {
         let globals = map.get("globals").ok_or(InputError::Missing { at: root.clone(), field: "globals" })?;
         let at = Location { field: Some("globals"), ..root.clone() };
@@ -214,10 +231,10 @@ pub fn parse_layout_params(layout: &Layout, text: &str) -> Result<Vec<f64>, Inpu
         check_fields(obj, &fields, &at)?;
         for f in layout.globals {
             let value = obj.get(f.name).ok_or(InputError::Missing { at: at.clone(), field: f.name })?;
-            field_values(value, f.kind, Location { field: Some(f.name), ..root.clone() }, &mut p)?;
+            field_values(value, f.kind, Location { field: Some(f.name), ..root.clone() }, &mut g)?;
         }
     }
-    Ok(p)
+    Ok((p, g))
 }
 
 /// Appends the scalars of one field of kind `kind` (see [`parse_layout_params`]).

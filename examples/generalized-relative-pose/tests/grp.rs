@@ -500,3 +500,55 @@ fn a_users_problem_is_certified_without_a_line_of_its_own() {
     println!("{certified} of {solved} solutions certified");
     assert!(solved >= 19 && certified >= solved - 1, "{certified} certified of {solved} solved");
 }
+
+/// More correspondences than the data instance's 7: solved on the first 7, refined and
+/// validated on all (`Solver::solve_rows`, and `grp solve` on such a file); a wrong match among
+/// them is an error that names a run of rows holding it, and too few rows say how many.
+#[test]
+fn more_rows_than_the_instance_are_solved_on_the_first_and_validated_on_all() {
+    use simhc::solver::{DeclaredProblem, EstimateError, Solver};
+    let seed = 31;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let solver = Solver::new(GenRelPose::new()).expect("shipped weights");
+    let (rows, truth) = generalized_relative_pose::scene_rows(&mut rng, 20, 0.0);
+    let s = solver.solve_rows(&rows, &[]).expect("20 exact correspondences");
+    assert_eq!(s.rows, 20);
+    assert!(solver.problem().correct(&errors(&s.x, &truth)), "{:?}", errors(&s.x, &truth));
+    assert!(s.max_row_error < 1e-6, "{}", s.max_row_error);
+
+    let (other, _) = generalized_relative_pose::scene_rows(&mut rng, 20, 0.0);
+    let mut wrong = rows.clone();
+    wrong[12 * 12..13 * 12].copy_from_slice(&other[12 * 12..13 * 12]);
+    match solver.solve_rows(&wrong, &[]) {
+        Err(EstimateError::NotValidatedOnAll { rows: 20, instance: 7, first, last, .. }) => {
+            assert!((first..=last).contains(&12), "rows {first}..={last}")
+        }
+        other => panic!("a wrong match at row 12: {other:?}"),
+    }
+    assert!(matches!(solver.solve_rows(&rows[..6 * 12], &[]), Err(EstimateError::TooFew { rows: 6, needed: 7 })));
+
+    // The command: a file of 20 correspondences.
+    let json = |rows: &[f64]| {
+        let items: Vec<String> = rows
+            .chunks_exact(12)
+            .map(|r| format!(r#"{{"f": {:?}, "v": {:?}, "fp": {:?}, "vp": {:?}}}"#, &r[0..3], &r[3..6], &r[6..9], &r[9..12]))
+            .collect();
+        format!("{{\"correspondences\": [{}]}}", items.join(", "))
+    };
+    let dir = std::env::temp_dir().join(format!("grp-rows-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let (good, bad) = (dir.join("twenty.json"), dir.join("wrong.json"));
+    std::fs::write(&good, json(&rows)).expect("write");
+    std::fs::write(&bad, json(&wrong)).expect("write");
+    let (ok, out, err) = grp(&["solve", "grp", "--input", good.to_str().expect("utf-8")]);
+    assert!(ok, "{err}");
+    let doc: serde_json::Value = serde_json::from_str(&out).expect("JSON");
+    assert_eq!((doc["validated"].as_bool(), doc["rows"].as_u64()), (Some(true), Some(20)), "{out}");
+    let q: Vec<f64> = doc["unknowns"]["q"].as_array().expect("q").iter().map(|v| v.as_f64().expect("number")).collect();
+    let dot: f64 = q.iter().zip(truth.fixed_rows::<4>(0).iter()).map(|(a, b)| a * b).sum();
+    assert!(dot.abs() > 1.0 - 1e-9, "q {q:?} against the truth");
+    let (ok, _, err) = grp(&["solve", "grp", "--input", bad.to_str().expect("utf-8")]);
+    assert!(!ok && err.contains("does not validate on correspondences"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

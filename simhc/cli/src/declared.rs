@@ -136,7 +136,9 @@ struct BenchArgs {
 /// `<app> solve <problem>`.
 #[derive(Args, Debug)]
 struct SolveArgs {
-    /// The correspondences: `{"correspondences": [{field: value, ..}, ..], "globals": {..}}`.
+    /// The correspondences: `{"correspondences": [{field: value, ..}, ..], "globals": {..}}`;
+    /// more than the data instance has are solved on the first, refined and validated on all
+    /// (`Solver::solve_rows`).
     #[arg(long)]
     input: PathBuf,
     /// Noise level of the data (the problem's unit): the validator's tolerance.
@@ -447,8 +449,7 @@ where
     fn solve(&self, a: SolveArgs) -> Result<(), String> {
         let layout = S::Data::LAYOUT;
         let text = std::fs::read_to_string(&a.input).map_err(|e| format!("{}: {e}", a.input.display()))?;
-        let p = simhc::input::parse_layout_params(&layout, &text).map_err(|e| format!("{}: {e}", a.input.display()))?;
-        let p = SVector::<f64, ND>::from_column_slice(&p);
+        let (rows, globals) = simhc::input::parse_layout_rows(&layout, &text).map_err(|e| format!("{}: {e}", a.input.display()))?;
         let solver = self.solver_with(&a.weights, &a.start_system, a.noise)?.certifying(simhc::solver::Certification::Report);
         let unknowns = |x: &SVector<f64, NX>| -> serde_json::Value {
             layout
@@ -465,6 +466,14 @@ where
                 .collect::<serde_json::Map<_, _>>()
                 .into()
         };
+        if rows.len() > layout.rows * layout.per_row {
+            // More rows than the data instance: solved on the first, refined and validated on all.
+            let s = solver.solve_rows(&rows, &globals).map_err(|e| format!("{}: {e}", a.input.display()))?;
+            return print_json(&serde_json::json!({
+                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "rows": s.rows, "refined": s.refined, "max_row_error": s.max_row_error,
+            }));
+        }
+        let p = SVector::<f64, ND>::from_iterator(rows.into_iter().chain(globals));
         match solver.solve(&p) {
             Ok(s) => print_json(&serde_json::json!({
                 "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": origin_json(&solver, s.origin)?, "attempts": s.attempts, "check": to_json(&s.check)?, "certificate": crate::certificates::json(&s.certified),

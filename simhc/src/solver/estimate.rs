@@ -115,6 +115,30 @@ pub enum EstimateError {
         /// Samples drawn.
         iterations: usize,
     },
+    /// [`Solver::solve_rows`]: the data instance's rows (the first) gave no validated solution;
+    /// why.
+    #[error("the first {rows} correspondences (the data instance) gave no validated solution: {reason}")]
+    FirstRowsNotSolved {
+        /// Rows of the data instance.
+        rows: usize,
+        /// The solve's error.
+        reason: String,
+    },
+    /// [`Solver::solve_rows`]: neither the first rows' solution nor its refinement on all rows
+    /// validates on every run of rows; the first run the better of them does not explain.
+    #[error("the solution of the first {instance} correspondences, refined on all {rows}, does not validate on correspondences {first}..={last} (check {check})")]
+    NotValidatedOnAll {
+        /// Rows given.
+        rows: usize,
+        /// Rows of the data instance.
+        instance: usize,
+        /// First row of the run that does not validate.
+        first: usize,
+        /// Last row of that run.
+        last: usize,
+        /// The validator's check of that run (its `Debug`).
+        check: String,
+    },
     /// Exactly one sample's worth of rows: the one solve of them ([`Solver::solve`], fallback
     /// included) gave no validated solution; why.
     #[error("{rows} correspondences make one sample, and its solve gave no validated solution: {reason}")]
@@ -156,7 +180,7 @@ fn constraint_rows<Q, const NX: usize, const NF: usize, const NP: usize>(
 }
 
 /// The RANSAC view of a solver: rows in, validated sample solutions out.
-struct Samples<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
+pub(super) struct Samples<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
@@ -281,9 +305,15 @@ impl<'a, S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, 
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
 {
+    /// The view of `solver` for the rows' `globals`, with the Cauchy scale `threshold` of
+    /// [`Estimator::refine`] and no sample attempts (a caller that refines and scores only).
+    pub(super) fn new(solver: &'a Solver<S, NX, NF, NP, NC, ND>, globals: &'a [f64], threshold: f64) -> Self {
+        Self { solver, globals, threshold, attempts: Vec::new(), sizes: PhantomData }
+    }
+
     /// The problem's error of `row` at `x` ([`DeclaredProblem::row_error`]), NaN counted as
     /// infinite: a row no model explains is an outlier, and a robust cost stays ordered.
-    fn row_error(&self, x: &SVector<f64, NX>, row: &[f64]) -> f64 {
+    pub(super) fn row_error(&self, x: &SVector<f64, NX>, row: &[f64]) -> f64 {
         let e = self.solver.problem().row_error(x, row, self.globals);
         if e.is_nan() {
             f64::INFINITY
@@ -294,7 +324,7 @@ where
 
     /// The data instance of the rows `indices` (as many as the instance has) and the globals:
     /// a sample, or the inliers a model is certified on.
-    fn instance(&self, data: &[&[f64]], indices: impl Iterator<Item = usize>) -> SVector<f64, ND> {
+    pub(super) fn instance(&self, data: &[&[f64]], indices: impl Iterator<Item = usize>) -> SVector<f64, ND> {
         let layout = S::Data::LAYOUT;
         let mut p = SVector::<f64, ND>::zeros();
         for (k, i) in indices.take(layout.rows).enumerate() {
@@ -338,6 +368,32 @@ where
     }
 }
 
+/// `rows` (row after row, `layout.per_row` numbers each) as rows, after the checks every
+/// solve of rows makes: whole rows, the globals' length, at least the data instance's rows, and
+/// finite numbers (an error names the row and field of the first that is not).
+pub(super) fn checked_rows<'r>(layout: &crate::layout::Layout, rows: &'r [f64], globals: &[f64]) -> Result<Vec<&'r [f64]>, EstimateError> {
+    let per_row = layout.per_row;
+    if per_row == 0 || rows.len() % per_row != 0 {
+        return Err(EstimateError::Length { len: rows.len(), per_row });
+    }
+    if globals.len() != layout.globals_len() {
+        return Err(EstimateError::Globals { got: globals.len(), expected: layout.globals_len() });
+    }
+    let n = rows.len() / per_row;
+    if n < layout.rows {
+        return Err(EstimateError::TooFew { rows: n, needed: layout.rows });
+    }
+    if let Some(index) = rows.iter().position(|v| !v.is_finite()) {
+        let mut at = NonFiniteParameter::locate(layout, index % per_row);
+        (at.row, at.index) = (Some(index / per_row), index);
+        return Err(EstimateError::NonFinite(at));
+    }
+    if let Some(k) = globals.iter().position(|v| !v.is_finite()) {
+        return Err(EstimateError::NonFinite(NonFiniteParameter::locate(layout, layout.rows * per_row + k)));
+    }
+    Ok(rows.chunks_exact(per_row).collect())
+}
+
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Solver<S, NX, NF, NP, NC, ND>
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
@@ -352,26 +408,8 @@ where
         options: &RansacOptions,
     ) -> Result<(SVector<f64, NX>, EstimateInfo), EstimateError> {
         let layout = S::Data::LAYOUT;
-        let per_row = layout.per_row;
-        if per_row == 0 || rows.len() % per_row != 0 {
-            return Err(EstimateError::Length { len: rows.len(), per_row });
-        }
-        if globals.len() != layout.globals_len() {
-            return Err(EstimateError::Globals { got: globals.len(), expected: layout.globals_len() });
-        }
-        let n = rows.len() / per_row;
-        if n < layout.rows {
-            return Err(EstimateError::TooFew { rows: n, needed: layout.rows });
-        }
-        if let Some(index) = rows.iter().position(|v| !v.is_finite()) {
-            let mut at = NonFiniteParameter::locate(&layout, index % per_row);
-            (at.row, at.index) = (Some(index / per_row), index);
-            return Err(EstimateError::NonFinite(at));
-        }
-        if let Some(k) = globals.iter().position(|v| !v.is_finite()) {
-            return Err(EstimateError::NonFinite(NonFiniteParameter::locate(&layout, layout.rows * per_row + k)));
-        }
-        let data: Vec<&[f64]> = rows.chunks_exact(per_row).collect();
+        let data = checked_rows(&layout, rows, globals)?;
+        let n = data.len();
         let attempts = sample_attempts(self.schedule(), S::SAMPLE_ATTEMPTS);
         let samples =
             Samples::<S, NX, NF, NP, NC, ND> { solver: self, globals, threshold: options.threshold, attempts, sizes: PhantomData };

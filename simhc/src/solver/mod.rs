@@ -23,12 +23,14 @@
 //!   ([`InstanceProblem`]), and the blanket impl for every [`DeclaredProblem`];
 //! - [`restarts`]: restarts around the learned start, before the fallback;
 //! - [`library`]: the solver, [`Solver`];
-//! - [`estimate`]: the robust estimator, [`Solver::estimate`].
+//! - [`estimate`]: the robust estimator, [`Solver::estimate`];
+//! - [`many_rows`]: a solve of more rows than the data instance has, [`Solver::solve_rows`].
 
 pub mod estimate;
 pub mod hypotheses;
 pub mod instance;
 pub mod library;
+pub mod many_rows;
 pub mod parts;
 pub mod problem;
 pub mod residual;
@@ -43,6 +45,7 @@ pub use instance::{InstanceProblem, RowwiseLearned};
 pub use library::{
     Certification, InstanceOutcome, InstanceSolver, Outcome, Solution, SolveError, Solver, SolverError, StartId, MAX_OTHERS,
 };
+pub use many_rows::RowsSolution;
 pub use parts::{Canon, FirstRows, FirstRowsError, GivenStart, RandomStart};
 pub use problem::{CanonicalFrame, DeclaredProblem, DegenerateInput, OtherSimulator, OtherStart, Refinement};
 pub use residual::row_residual;

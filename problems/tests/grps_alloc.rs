@@ -11,9 +11,8 @@ mod counting_alloc;
 use counting_alloc::counted;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use simhc::pipeline::{Attempt, Method, Origin};
-use simhc::solver::other_provider;
-use simhc::solver::{sample_schedule, DeclaredProblem, LearnedHypotheses, Solver};
+use simhc::pipeline::Method;
+use simhc::solver::{sample_schedule, DeclaredProblem, Solver, SolverAttempt, SolverOrigin, StartId};
 use simhc_problems::grps::declared::Grps8Problem;
 use simhc_problems::grps::learned::GrpsNetwork;
 use simhc_problems::grps::scene::GrpsSceneConfig;
@@ -32,9 +31,9 @@ fn a_solve_short_of_the_fallback_allocates_nothing() {
         let p = if k % 2 == 1 { problem.move_frames(&mut rng, &p, &x).expect("a frame").0 } else { p };
         let (result, n) = counted(|| solver.solve(&p));
         match result.map(|s| s.origin) {
-            Ok(Origin::Path { provider, .. }) => {
+            Ok(SolverOrigin::Attempt(SolverAttempt { start, .. })) => {
                 paths += 1;
-                later_than_first += usize::from(provider > 1);
+                later_than_first += usize::from(!matches!(start, StartId::Learned { rank: 0, .. }));
                 allocations += n;
             }
             other => println!("scene {k}: {other:?}, {n} allocations"),
@@ -77,14 +76,13 @@ fn a_sample_that_does_not_validate_allocates_nothing() {
 fn the_predicted_starts_allocate_nothing() {
     let solver = Solver::new(Grps8Problem::new()).expect("shipped weights");
     let problem = solver.problem();
-    let hypotheses = solver.learned_start().hypotheses();
     let mut rng = ChaCha8Rng::seed_from_u64(44);
     let (mut validated, mut allocations) = (0, 0);
     for k in 0..20 {
         let (p, x) = problem.scene(&mut rng, 0.0);
         let p = if k % 2 == 1 { problem.move_frames(&mut rng, &p, &x).expect("a frame").0 } else { p };
         for j in 0..3 {
-            let attempt = Attempt { provider: other_provider(hypotheses, j), method: Method::GaussNewton };
+            let attempt = SolverAttempt::new(StartId::Other(j), Method::GaussNewton);
             let (result, n) = counted(|| solver.run_pipeline(&p, &[attempt], false, None));
             validated += usize::from(result.is_ok());
             allocations += n;

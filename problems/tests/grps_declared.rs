@@ -9,8 +9,8 @@ use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::Validator;
-use simhc::pipeline::{Method, Origin, OutputDecoding};
-use simhc::solver::{DeclaredProblem, LearnedHypotheses, Solver};
+use simhc::pipeline::{Method, OutputDecoding};
+use simhc::solver::{DeclaredProblem, Solver, SolverAttempt, SolverOrigin};
 use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
 use simhc_problems::grps::declared::{params_of, Grps8Problem, GrpsOutputs, GrpsSolvers, GrpsSolversError};
 use simhc_problems::grps::eight_rows;
@@ -41,7 +41,7 @@ fn tally(trials: usize, seed: u64, make: impl Fn(&Grps8Problem, &mut ChaCha8Rng)
                 wrong += 1;
                 println!("wrong: {errors:?}");
             }
-            paths += usize::from(matches!(s.origin, Origin::Path { method: Method::SimulatorHc, .. }));
+            paths += usize::from(matches!(s.origin, SolverOrigin::Attempt(SolverAttempt { method: Method::SimulatorHc, .. })));
         }
     }
     (correct, wrong, paths)
@@ -278,8 +278,7 @@ fn the_estimator_finds_the_inliers_of_grps8() {
 /// 65 with Gauss-Newton after every other attempt.
 #[test]
 fn a_restart_turns_the_prediction_and_resolves_translation_and_scale() {
-    use simhc::solver::restart_provider;
-    use simhc::solver::{restart_rotation, MAX_RESTARTS};
+    use simhc::solver::{restart_rotation, StartId, MAX_RESTARTS};
     use simhc_problems::grps::declared::GRPS_RESTART_ANGLES_DEG;
     let seed = 21;
     println!("seed {seed}");
@@ -301,10 +300,7 @@ fn a_restart_turns_the_prediction_and_resolves_translation_and_scale() {
 
     let solver = Solver::new(problem).expect("shipped weights");
     let schedule = solver.schedule();
-    let (hypotheses, others) = (solver.learned_start().hypotheses(), 3);
-    let tail: Vec<_> = (0..restarts)
-        .map(|k| simhc::pipeline::Attempt { provider: restart_provider(hypotheses, others, k), method: Method::GaussNewton })
-        .collect();
+    let tail: Vec<_> = (0..restarts).map(|k| SolverAttempt::new(StartId::Restart(k), Method::GaussNewton)).collect();
     assert!(schedule.ends_with(&tail), "{schedule:?}");
 }
 

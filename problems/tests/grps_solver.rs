@@ -5,8 +5,9 @@
 //! asserted.
 
 use nalgebra::{SVector, Vector3};
-use simhc::pipeline::{Attempt, Method, PipelineError, StartError, StartProvider};
+use simhc::pipeline::{Method, PipelineError, StartError, StartProvider};
 use simhc::solver::DeclaredProblem;
+use simhc::solver::{SolverAttempt, StartId};
 use simhc_problems::grps::declared::{params_of, GrpsSolvers, GrpsSolversError};
 use simhc_problems::grps::features::{GRPS_OUTPUTS, GRPS_ROW_WIDTH};
 use simhc_problems::grps::geometry::GrpsError;
@@ -112,7 +113,7 @@ fn small_perturbations_are_tracked_exactly_by_every_simulator() {
             let p = params_of::<96>(&scene.correspondences).expect("8 correspondences");
             let (_, frame) = solver.problem().canonicalize(&p).expect("a canonical frame");
             let given = Given(frame.to_canonical(&start));
-            let result = solver.run_pipeline(&p, &[Attempt { provider: 2, method }], false, Some(&given));
+            let result = solver.run_pipeline(&p, &[SolverAttempt::new(StartId::Given, method)], false, Some(&given));
             if let Ok(s) = result {
                 assert_eq!(s.attempts, 1);
                 solved += usize::from(GrpsPose::from_unknowns(&s.x).is_some_and(|pose| exact(&pose, &scene)));

@@ -9,7 +9,8 @@
 mod counting_alloc;
 
 use counting_alloc::counted;
-use simhc::pipeline::{Method, Origin};
+use simhc::pipeline::Method;
+use simhc::solver::{SolverAttempt, SolverOrigin, StartId};
 use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::scene::UpnpSceneConfig;
 
@@ -18,7 +19,7 @@ fn a_solve_validated_by_the_linear_start_allocates_nothing() {
     let solver = UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights load");
     let config = UpnpSceneConfig::default(); // 2 px
     let scenes: Vec<_> = (0..50).map(|seed| config.sample_seeded(2000 + seed).expect("valid config").correspondences).collect();
-    let linear_gn = Origin::Path { provider: 3, method: Method::GaussNewton };
+    let linear_gn = SolverOrigin::Attempt(SolverAttempt::new(StartId::Other(0), Method::GaussNewton));
     let (mut common, mut allocations) = (0, 0);
     for (seed, corrs) in scenes.iter().enumerate() {
         let (result, n) = counted(|| solver.solve(&corrs[..]));
@@ -33,7 +34,7 @@ fn a_solve_validated_by_the_linear_start_allocates_nothing() {
     assert_eq!(allocations, 0, "allocations over {common} solves on the common path");
     // The learned start's Gauss-Newton allocates nothing either.
     let learned_only = UpnpLibrarySolver::new(UpnpProblem { linear_start: false, ..UpnpProblem::default() }).expect("weights");
-    let learned_gn = Origin::Path { provider: 0, method: Method::GaussNewton };
+    let learned_gn = SolverOrigin::Attempt(SolverAttempt::new(StartId::LEARNED, Method::GaussNewton));
     let (mut learned, mut learned_allocations) = (0, 0);
     for corrs in &scenes {
         let (result, n) = counted(|| learned_only.solve(&corrs[..]));

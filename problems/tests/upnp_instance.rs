@@ -8,8 +8,8 @@ use nalgebra::SVector;
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use simhc::pipeline::learned::NonFiniteParameter;
-use simhc::pipeline::{Attempt, Method, PipelineError};
-use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
+use simhc::pipeline::{AttemptError, Method, PipelineError};
+use simhc::solver::{DegenerateInput, FirstRowsError, LearnedHypotheses, SolveError, SolverAttempt, SolverOrigin, StartId};
 use simhc_problems::metrics::{quat_from_rotation, rotation_error_deg, translation_error_pct};
 use simhc_problems::upnp::geometry::upnp_system;
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
@@ -20,16 +20,17 @@ use simhc_problems::upnp::scene::{PointBox, UpnpSceneConfig};
 use simhc::solver::GivenStart as Given;
 
 /// One Simulator HC path from the caller's start, validated, no fallback.
-const FROM_GIVEN: [Attempt; 1] = [Attempt { provider: 2, method: Method::SimulatorHc }];
+const FROM_GIVEN: [SolverAttempt; 1] = [SolverAttempt::new(StartId::Given, Method::SimulatorHc)];
 
 #[test]
 fn noise_free_scenes_are_solved_exactly() {
     let solver = UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights load");
-    // The linear start (provider 3, after the learned start's 0 and 1 and the caller's 2) is
-    // tried first: Gauss-Newton, then the learned start's; then a path from each.
-    let gn = |provider| Attempt { provider, method: Method::GaussNewton };
-    let path = |provider| Attempt { provider, method: Method::SimulatorHc };
-    assert_eq!(solver.schedule(), [gn(3), gn(0), path(3), path(0)]);
+    // The linear start (the problem's other start) is tried first: Gauss-Newton, then the
+    // learned start's; then a path from each.
+    let gn = |start| SolverAttempt::new(start, Method::GaussNewton);
+    let path = |start| SolverAttempt::new(start, Method::SimulatorHc);
+    let (linear, learned) = (StartId::Other(0), StartId::LEARNED);
+    assert_eq!(solver.schedule(), [gn(linear), gn(learned), path(linear), path(learned)]);
     let config = UpnpSceneConfig { noise_px: 0.0, ..UpnpSceneConfig::default() };
     for seed in 0..50u64 {
         let scene = config.sample_seeded(seed).expect("valid config");
@@ -142,6 +143,37 @@ fn the_learned_start_alone_solves_the_training_distribution() {
     let ok = (0..n).filter(|&seed| solver.solve(&config.sample_seeded(500 + seed).expect("valid").correspondences[..]).is_ok()).count();
     println!("seeds 500..560: {ok}/{n} from the learned start alone");
     assert!(ok >= 57, "{ok}/{n}");
+}
+
+/// An attempt from a start that this solve does not have (no given start, a rank beyond the
+/// learned start's hypotheses, an other start or a restart beyond the problem's) is no attempt:
+/// not counted, its reason the last error when nothing else ran, and the attempts after it run
+/// as they would alone.
+#[test]
+fn an_attempt_from_a_start_the_solve_does_not_have_is_no_attempt() {
+    let solver = UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights load");
+    let hypotheses = solver.learned_start().hypotheses();
+    let scene = UpnpSceneConfig::default().sample_seeded(3).expect("valid config");
+    let corrs = &scene.correspondences[..];
+    let linear = SolverAttempt::new(StartId::Other(0), Method::GaussNewton);
+    let alone = solver.run_pipeline(corrs, &[linear], false, None).expect("the linear start's Gauss-Newton validates");
+    assert_eq!((alone.origin, alone.attempts), (SolverOrigin::Attempt(linear), 1));
+    let missing = [
+        StartId::Given,
+        StartId::Learned { rank: hypotheses, refined: false },
+        StartId::Learned { rank: hypotheses, refined: true },
+        StartId::Other(1),
+        StartId::Restart(0),
+    ];
+    for start in missing {
+        let attempt = SolverAttempt::new(start, Method::GaussNewton);
+        match solver.run_pipeline(corrs, &[attempt], false, None) {
+            Err(PipelineError::NoEndPoint { attempts: 0, last: Some(AttemptError::Start(_)) }) => {}
+            other => panic!("{start}: {other:?}"),
+        }
+        let after = solver.run_pipeline(corrs, &[attempt, linear], false, None).expect("the linear start still runs");
+        assert_eq!((after.x, after.origin, after.attempts), (alone.x, alone.origin, 1), "{start}");
+    }
 }
 
 #[test]

@@ -10,7 +10,7 @@ use counting_alloc::counted;
 use generalized_relative_pose::{canonicalize, move_frames, scene, GenRelPose};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use simhc::pipeline::Origin;
+use simhc::solver::SolverOrigin;
 
 #[test]
 fn a_solve_in_a_canonical_frame_allocates_nothing() {
@@ -24,7 +24,7 @@ fn a_solve_in_a_canonical_frame_allocates_nothing() {
         let (p, _) = if k % 2 == 1 { move_frames(&mut rng, &p, &x) } else { (p, x) };
         assert!(canonicalize(&p).expect("a frame").1.is_inline(), "the frame's maps fit inline");
         let (result, n) = counted(|| solver.solve(&p));
-        if matches!(result.map(|s| s.origin), Ok(Origin::Path { .. })) {
+        if matches!(result.map(|s| s.origin), Ok(SolverOrigin::Attempt(_))) {
             paths += 1;
             allocations += n;
         }

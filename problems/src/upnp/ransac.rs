@@ -23,9 +23,9 @@ use super::refine::{levenberg_marquardt, LmOptions};
 use super::scene::UpnpCorrespondence;
 use crate::metrics::quat_from_rotation;
 use crate::robust::{self, RobustError};
-use simhc::pipeline::{Attempt, Method};
+use simhc::pipeline::Method;
 use simhc::ransac::{Estimator, RansacOptions};
-use simhc::solver::{EstimateInfo, SolverError};
+use simhc::solver::{EstimateInfo, SolverAttempt, SolverError, StartId};
 use std::sync::Arc;
 
 /// The angle (radians) between the bearing of `c` and the direction from its ray origin to its
@@ -53,8 +53,8 @@ pub type UpnpEstimateError = RobustError<UpnpError>;
 pub struct UpnpEstimator {
     /// The solver of a sample (module docs: learned start only, no fallback).
     pub solver: Arc<UpnpLibrarySolver>,
-    /// The attempts on a sample, over the solver's providers (0: the learned start).
-    pub attempts: Vec<Attempt>,
+    /// The attempts on a sample, each naming its start.
+    pub attempts: Vec<SolverAttempt>,
     /// Correspondences per sample (at least 3).
     pub sample_size: usize,
     /// Settings of the local optimization on the inliers.
@@ -79,7 +79,7 @@ impl std::fmt::Debug for UpnpEstimator {
 /// --threshold 0.00375 --trials 30 --rows 100 --noise 1 --seed 1` (2026-12-04, BENCHMARKS.md):
 /// one path per sample 18.8-29.4 ms per call, Gauss-Newton then a path 28.4-33.4 ms,
 /// Gauss-Newton alone 7.5-9.5 ms, all at 100 % success and recall.
-pub const SAMPLE_ATTEMPTS: [Attempt; 1] = [Attempt { provider: 0, method: Method::GaussNewton }];
+pub const SAMPLE_ATTEMPTS: [SolverAttempt; 1] = [SolverAttempt::new(StartId::LEARNED, Method::GaussNewton)];
 
 impl UpnpEstimator {
     /// An estimator whose samples are solved from `network` with the attempts of

@@ -24,9 +24,12 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use simhc::layout::Layout;
 use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Score};
-use simhc::pipeline::{Attempt, Method, Origin, PipelineError};
+use simhc::pipeline::{Method, PipelineError};
 use simhc::solver::hypotheses::RankedStarts;
-use simhc::solver::{shipped_schedule, AllRootsFallback, DeclaredProblem, LearnedHypotheses, RandomStart, SolveError, Solver};
+use simhc::solver::{
+    shipped_schedule, AllRootsFallback, DeclaredProblem, LearnedHypotheses, RandomStart, SolveError, Solver, SolverAttempt, SolverOrigin,
+    StartId,
+};
 use simhc::ProblemLayout;
 #[cfg(feature = "train")]
 use simhc_regressor::generic::train_learned_start_with;
@@ -350,11 +353,10 @@ where
         if progress {
             println!("{} bench: {} trials ({source}), single thread", S::NAME, trials.len());
         }
-        let rand = 2;
         let score = self.score();
         // Every row runs the library solver's own assembly (its ranked hypotheses), the random
-        // start in slot 2.
-        let row = |name: &str, schedule: &[Attempt], with_fallback: bool, trials: &[(SVector<f64, ND>, SVector<f64, NX>)]| {
+        // start given to every run (only the row that names it uses it).
+        let row = |name: &str, schedule: &[SolverAttempt], with_fallback: bool, trials: &[(SVector<f64, ND>, SVector<f64, NX>)]| {
             let bar = progress_bar(trials.len() as u64, progress);
             bar.set_message(name.to_string());
             let row = bench_row(name, trials, &score, |d| {
@@ -376,7 +378,7 @@ where
                 None => first(p),
             }),
             row(if has_refine { "Pred + Gauss-Newton (all rows)" } else { "Pred + Gauss-Newton" }, gauss_newton, false, &trials),
-            row("Rand + Sim HC (one path)", &[Attempt { provider: rand, method: Method::SimulatorHc }], false, &trials),
+            row("Rand + Sim HC (one path)", &[SolverAttempt::new(StartId::Given, Method::SimulatorHc)], false, &trials),
             row("Pred + Sim HC (one path)", simulator_hc, false, &trials),
         ];
         if hypotheses > 1 {
@@ -402,7 +404,7 @@ where
                 Err(PipelineError::NotValidated(s)) => Some(s.origin),
                 Err(_) => None,
             };
-            fallbacks.set(fallbacks.get() + usize::from(matches!(origin, Some(Origin::Fallback { .. }))));
+            fallbacks.set(fallbacks.get() + usize::from(matches!(origin, Some(SolverOrigin::Fallback { .. }))));
             result
         }));
         bar.finish_and_clear();
@@ -476,7 +478,7 @@ where
         let p = SVector::<f64, ND>::from_iterator(rows.into_iter().chain(globals));
         match solver.solve(&p) {
             Ok(s) => print_json(&serde_json::json!({
-                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": origin_json(&solver, s.origin)?, "attempts": s.attempts, "check": to_json(&s.check)?, "certificate": crate::certificates::json(&s.certified),
+                "problem": S::NAME, "validated": true, "unknowns": unknowns(&s.x), "origin": origin_json(s.origin)?, "attempts": s.attempts, "check": to_json(&s.check)?, "certificate": crate::certificates::json(&s.certified),
             })),
             Err(SolveError::NotValidated { best, check, attempts }) => Err(format!(
                 "{}: no solution validated after {attempts} attempts (noise {}; pass --noise for noisy data); best, flagged, NOT a solution: {} (check {})",
@@ -494,18 +496,12 @@ where
 /// an attempt (the start by name, [`simhc::solver::StartId`]; the method as
 /// [`simhc::pipeline::Method`] serializes), `{"fallback": k}` for the all-roots fallback's
 /// candidate `k`.
-fn origin_json<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>(
-    solver: &Solver<S, NX, NF, NP, NC, ND>,
-    origin: Origin,
-) -> Result<serde_json::Value, String>
-where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
-{
+fn origin_json(origin: SolverOrigin) -> Result<serde_json::Value, String> {
     Ok(match origin {
-        Origin::Path { provider, method } => {
-            serde_json::json!({ "start": solver.start_of(provider).to_string(), "method": to_json(&method)? })
+        SolverOrigin::Attempt(SolverAttempt { start, method }) => {
+            serde_json::json!({ "start": start.to_string(), "method": to_json(&method)? })
         }
-        Origin::Fallback { candidate } => serde_json::json!({ "fallback": candidate }),
+        SolverOrigin::Fallback { candidate } => serde_json::json!({ "fallback": candidate }),
     })
 }
 

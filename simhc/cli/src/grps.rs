@@ -8,10 +8,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use simhc::all_roots::AllRootsOptions;
-use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartError, StartProvider};
+use simhc::pipeline::{Method, PipelineError, Solved, StartError, StartProvider};
 use simhc::ransac::RansacOptions;
-use simhc::solver::{other_provider, provider, restart_provider};
-use simhc::solver::{DeclaredProblem, FirstRowsError, LearnedHypotheses, SolveError, Solver};
+use simhc::solver::{DeclaredProblem, FirstRowsError, LearnedHypotheses, SolveError, Solver, SolverAttempt, SolverOrigin, StartId};
 use simhc_problems::grps::declared::{
     grps_pipeline_options, params_of, sample_attempts, sample_candidates, GrpsSolvers, GrpsSolversError, RANSAC_NOISE_PX, RESTARTS,
 };
@@ -137,10 +136,10 @@ fn ok(o: &Outcome) -> bool {
 }
 
 /// What one run of a GRPS library solver's pipeline returns.
-type PipelineOutcome = Result<Solved<Validation, 8>, PipelineError<FirstRowsError, Validation, 8>>;
+type PipelineOutcome = Result<Solved<Validation, 8, SolverOrigin>, PipelineError<FirstRowsError, Validation, 8, SolverOrigin>>;
 
 /// The end point a run returned: validated, or flagged (`NotValidated` carries the best one).
-fn returned(result: &PipelineOutcome) -> Option<(&Solved<Validation, 8>, bool)> {
+fn returned(result: &PipelineOutcome) -> Option<(&Solved<Validation, 8, SolverOrigin>, bool)> {
     match result {
         Ok(s) => Some((s, false)),
         Err(PipelineError::NotValidated(s)) => Some((s, true)),
@@ -165,7 +164,7 @@ impl SolverRow {
         match returned(result).and_then(|(s, flagged)| Some((s, flagged, GrpsPose::from_unknowns(&s.x)?))) {
             Some((s, flagged, pose)) => {
                 self.flagged += usize::from(flagged);
-                self.fallbacks += usize::from(matches!(s.origin, Origin::Fallback { .. }));
+                self.fallbacks += usize::from(matches!(s.origin, SolverOrigin::Fallback { .. }));
                 self.attempts.push(s.attempts as f64);
                 let split = [us(s.times.start), us(s.times.simulator), us(s.times.target + s.times.tracking + s.times.fallback)];
                 let o = outcome(&pose, scene, micros, Some(split));
@@ -189,16 +188,13 @@ impl<const NP: usize> StartProvider<SVector<f64, NP>, 8> for GivenStart {
     }
 }
 
-/// The provider slot of the caller's start in a library solver's pipeline.
-const GIVEN: usize = 2;
-
 /// The start providers of the GRPS library solver with `hypotheses` learned hypotheses, in the
 /// order the hand-wired solver tried them: the learned start's ranked hypotheses (plain), then
 /// the three predicted starts (the predicted rotation with least-squares `(t, s)`, the swapped
 /// prediction and its rotation with least-squares `(t, s)`).
-fn start_providers(hypotheses: usize) -> Vec<usize> {
-    let mut starts: Vec<usize> = (0..hypotheses.max(1)).map(|rank| provider(rank, false)).collect();
-    starts.extend((0..3).map(|j| other_provider(hypotheses, j)));
+fn start_providers(hypotheses: usize) -> Vec<StartId> {
+    let mut starts: Vec<StartId> = (0..hypotheses.max(1)).map(|rank| StartId::Learned { rank, refined: false }).collect();
+    starts.extend((0..3).map(StartId::Other));
     starts
 }
 
@@ -206,14 +202,14 @@ fn start_providers(hypotheses: usize) -> Vec<usize> {
 /// ([`start_providers`]), all of them on one start before the next (`by_method` false) or each
 /// method on every start before the next method; then Gauss-Newton from every restart; at most
 /// 80 attempts; no fallback.
-fn retries(hypotheses: usize, methods: &[Method], by_method: bool) -> Vec<Attempt> {
+fn retries(hypotheses: usize, methods: &[Method], by_method: bool) -> Vec<SolverAttempt> {
     let starts = start_providers(hypotheses);
-    let mut out: Vec<Attempt> = if by_method {
-        methods.iter().flat_map(|&method| starts.iter().map(move |&provider| Attempt { provider, method })).collect()
+    let mut out: Vec<SolverAttempt> = if by_method {
+        methods.iter().flat_map(|&method| starts.iter().map(move |&start| SolverAttempt { start, method })).collect()
     } else {
-        starts.iter().flat_map(|&provider| methods.iter().map(move |&method| Attempt { provider, method })).collect()
+        starts.iter().flat_map(|&start| methods.iter().map(move |&method| SolverAttempt { start, method })).collect()
     };
-    out.extend((0..RESTARTS).map(|k| Attempt { provider: restart_provider(hypotheses, 3, k), method: Method::GaussNewton }));
+    out.extend((0..RESTARTS).map(|k| SolverAttempt::new(StartId::Restart(k), Method::GaussNewton)));
     out.truncate(80);
     out
 }
@@ -356,11 +352,11 @@ pub struct BenchReport {
 
 /// One run of `solver`'s pipeline on `corrs` (exactly the instance's count) with `schedule`,
 /// with or without the fallback, and with `given` (a start in the user's frame, mapped into the
-/// problem's canonical frame) in the caller's slot; `None` for another count.
+/// problem's canonical frame) as the run's given start; `None` for another count.
 fn run<S, const NF: usize, const NP: usize, const NC: usize>(
     solver: &Solver<S, 8, NF, NP, NC, NP>,
     corrs: &[GrpsCorrespondence],
-    schedule: &[Attempt],
+    schedule: &[SolverAttempt],
     fallback: bool,
     given: Option<&SVector<f64, 8>>,
 ) -> Option<PipelineOutcome>
@@ -372,8 +368,8 @@ where
         Some((_, frame)) => GivenStart(frame.to_canonical(x)),
         None => GivenStart(*x),
     });
-    let extra = start.as_ref().map(|s| s as &dyn StartProvider<SVector<f64, NP>, 8>);
-    Some(solver.run_pipeline(&p, schedule, fallback, extra))
+    let given = start.as_ref().map(|s| s as &dyn StartProvider<SVector<f64, NP>, 8>);
+    Some(solver.run_pipeline(&p, schedule, fallback, given))
 }
 
 /// A run's end point as a pose (validated or flagged), scored against the scene.
@@ -427,11 +423,11 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
     let solvers = args.solvers(0.0)?;
     let (seven, eight) = (&solvers.seven, &solvers.eight);
     let hypotheses = eight.learned_start().hypotheses();
-    let learned = provider(0, false);
+    let learned = StartId::LEARNED;
     // Every row is a schedule over the one solver (`GrpsSolvers`): the retries' rows without
     // the fallback, the shipped rows its own schedule with it.
-    let one_geometric = [Attempt { provider: learned, method: GEOMETRIC }];
-    let one_generic = [Attempt { provider: learned, method: GENERIC }];
+    let one_geometric = [SolverAttempt { start: learned, method: GEOMETRIC }];
+    let one_generic = [SolverAttempt { start: learned, method: GENERIC }];
     let retry_geometric = retries(hypotheses, &[GEOMETRIC, Method::GaussNewton, GENERIC], false);
     let retry_generic = retries(hypotheses, &[GENERIC, Method::GaussNewton, GEOMETRIC], false);
     let retry_gn_first = retries(hypotheses, &[Method::GaussNewton, GENERIC, GEOMETRIC], true);
@@ -460,7 +456,7 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
         let c7 = &c8[..7.min(c8.len())];
 
         // Pred Initial: the learned start as it is (its first-ranked hypothesis).
-        let start_only = [Attempt { provider: learned, method: Method::Start }];
+        let start_only = [SolverAttempt { start: learned, method: Method::Start }];
         let (p, micros) = timed(|| run(eight, c8, &start_only, false, None));
         pred.outcomes.push(pose_outcome(p.as_ref(), scene, micros));
         let lm = |x0: SVector<f64, 8>| -> Option<GrpsPose> {
@@ -475,11 +471,11 @@ fn stability(trials: &[GrpsScene], args: &GrpsArgs, progress: bool, figures: &mu
         pred_lm.outcomes.push(r.map_or(failed(micros), |p| outcome(&p, scene, micros, None)));
         // The pipeline's Gauss-Newton: an end point that does not converge is no end point (the
         // hand-wired row scored it all the same, as a wrong pose).
-        let gn_only = [Attempt { provider: learned, method: Method::GaussNewton }];
+        let gn_only = [SolverAttempt { start: learned, method: Method::GaussNewton }];
         let (r, micros) = timed(|| run(eight, c8, &gn_only, false, None));
         pred_gn.outcomes.push(pose_outcome(r.as_ref(), scene, micros));
 
-        let runs: [(bool, &[Attempt], bool); 11] = [
+        let runs: [(bool, &[SolverAttempt], bool); 11] = [
             (false, &one_geometric, false),
             (false, &one_generic, false),
             (true, &one_geometric, false),
@@ -577,7 +573,7 @@ pub const START_ANGLES: [f64; 5] = [5.0, 10.0, 20.0, 30.0, 45.0];
 
 fn starts(trials: &[GrpsScene], seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<StartCell>, String> {
     let solvers = args.solvers(0.0)?;
-    // One attempt from the given start (the caller's slot), no retries, no fallback.
+    // One attempt from the given start, no retries, no fallback.
     let methods: [(&str, Method, usize); 5] = [
         ("HC 8 pts, geometric", GEOMETRIC, 8),
         ("HC 8 pts, generic", GENERIC, 8),
@@ -600,7 +596,7 @@ fn starts(trials: &[GrpsScene], seed: u64, args: &GrpsArgs, progress: bool) -> R
             .unknowns();
             for (k, &(_, method, n)) in methods.iter().enumerate() {
                 let c = &scene.correspondences[..n];
-                let schedule = [Attempt { provider: GIVEN, method }];
+                let schedule = [SolverAttempt { start: StartId::Given, method }];
                 let (r, micros) = timed(|| {
                     if n == 8 {
                         run(&solvers.eight, c, &schedule, false, Some(&start))

@@ -6,9 +6,8 @@ use nalgebra::SVector;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
-use simhc::pipeline::{Attempt, Method, Origin, PipelineError, Solved, StartProvider};
-use simhc::solver::other_provider;
-use simhc::solver::{FirstRowsError, GivenStart, LearnedHypotheses, SolveError as LibraryError};
+use simhc::pipeline::{Method, PipelineError, Solved, StartProvider};
+use simhc::solver::{FirstRowsError, GivenStart, LearnedHypotheses, SolveError as LibraryError, SolverAttempt, SolverOrigin, StartId};
 use simhc_problems::metrics::{quat_from_rotation, random_unit_quaternion, rotation_error_deg, translation_error_pct};
 use simhc_problems::start_systems::{best_real_solution, solve_upnp, Selection};
 use simhc_problems::upnp::geometry::upnp_system;
@@ -142,7 +141,7 @@ fn solved(result: &PipelineOutcome, scene: &UpnpScene, micros: f64) -> Outcome {
 }
 
 /// What one pipeline run of the UPnP library solver returns.
-type PipelineOutcome = Result<Solved<UpnpValidation, 4>, PipelineError<FirstRowsError, UpnpValidation, 4>>;
+type PipelineOutcome = Result<Solved<UpnpValidation, 4, SolverOrigin>, PipelineError<FirstRowsError, UpnpValidation, 4, SolverOrigin>>;
 
 /// A rotation start with its optimal translation.
 fn start_outcome(q: Option<SVector<f64, 4>>, corrs: &[UpnpCorrespondence], scene: &UpnpScene, micros: f64) -> Outcome {
@@ -153,13 +152,13 @@ fn start_outcome(q: Option<SVector<f64, 4>>, corrs: &[UpnpCorrespondence], scene
 }
 
 /// Every row is a schedule over one solver, the library solver a user calls
-/// ([`UpnpLibrarySolver`]): its providers are the learned start (slot 0), the caller's start
-/// (slot 2) and the linear start ([`other_provider`]).
-const LEARNED: usize = 0;
-const GIVEN: usize = 2;
-const LINEAR: usize = other_provider(1, 0);
-const fn one_path(provider: usize) -> [Attempt; 1] {
-    [Attempt { provider, method: Method::SimulatorHc }]
+/// ([`UpnpLibrarySolver`]): its starts are the learned start, the caller's start and the linear
+/// start (the problem's only other start).
+const LEARNED: StartId = StartId::LEARNED;
+const GIVEN: StartId = StartId::Given;
+const LINEAR: StartId = StartId::Other(0);
+const fn one_path(start: StartId) -> [SolverAttempt; 1] {
+    [SolverAttempt::new(start, Method::SimulatorHc)]
 }
 
 /// Runs every row on the same trials, single-threaded.
@@ -225,8 +224,8 @@ pub fn bench(trials: &[UpnpScene], options: &BenchOptions, source: String, progr
         let result = solver.run_pipeline(corrs, solver.schedule(), true, None);
         full.outcomes.push(solved(&result, scene, us(t0.elapsed())));
         match result.as_ref().map(|s| s.origin) {
-            Ok(Origin::Path { provider, .. }) => shipped_attempts[usize::from(provider != LINEAR)] += 1,
-            Ok(Origin::Fallback { .. }) => shipped_attempts[2] += 1,
+            Ok(SolverOrigin::Attempt(a)) => shipped_attempts[usize::from(a.start != LINEAR)] += 1,
+            Ok(SolverOrigin::Fallback { .. }) => shipped_attempts[2] += 1,
             Err(_) => {}
         }
         // Its certificate, timed alone.
@@ -292,11 +291,11 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
     };
     let pose = upnp_pose(&x, &corrs).ok_or("the end point has no pose (a zero quaternion)")?;
     let (start, method) = match origin {
-        Some(Origin::Path { provider, method }) => {
-            let start = if provider == LINEAR { "linear" } else { "learned" };
+        Some(SolverOrigin::Attempt(SolverAttempt { start, method })) => {
+            let start = if start == LINEAR { "linear" } else { "learned" };
             (start, serde_json::to_value(method).map_err(|e| e.to_string())?)
         }
-        Some(Origin::Fallback { .. }) => ("all roots", serde_json::json!("AllRoots")),
+        Some(SolverOrigin::Fallback { .. }) => ("all roots", serde_json::json!("AllRoots")),
         None => ("none validated", serde_json::json!("-")),
     };
     let r = pose.rotation;

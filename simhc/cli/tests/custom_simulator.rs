@@ -9,8 +9,10 @@ use nalgebra::SVector;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::PipelineError;
-use simhc::pipeline::{Attempt, Method, Origin, StartError, StartProvider, StartSimulator};
-use simhc::solver::{restart_provider, DeclaredProblem, OtherSimulator, OtherStart, Solver, SolverError, MAX_OTHERS, MAX_RESTARTS};
+use simhc::pipeline::{Method, StartError, StartProvider, StartSimulator};
+use simhc::solver::{
+    DeclaredProblem, OtherSimulator, OtherStart, Solver, SolverAttempt, SolverError, SolverOrigin, StartId, MAX_OTHERS, MAX_RESTARTS,
+};
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
 use simhc_cli::{App, Declared};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -196,22 +198,27 @@ fn the_other_starts_and_simulators_run_after_the_learned_start() {
     std::fs::remove_dir_all(&dir).ok();
     let solver = Solver::with_weights(Listed { starts: 1, simulators: 1 }, &weights, 0.0).expect("builds");
 
-    // One hypothesis at providers 0 and 1, slot 2 free, the other start at 3: Gauss-Newton from
-    // the learned start and from the other start, then the learned start's paths with both
+    // One hypothesis and one other start: Gauss-Newton from the learned start and from the
+    // other start, then the learned start's paths with both
     // simulators, then the other start's.
-    let a = |provider, method| Attempt { provider, method };
+    let a = SolverAttempt::new;
+    let (learned, other) = (StartId::LEARNED, StartId::Other(0));
     let schedule = solver.schedule();
     let expect = [
-        a(0, Method::GaussNewton),
-        a(3, Method::GaussNewton),
-        a(0, Method::SimulatorHc),
-        a(0, Method::OtherSimulatorHc(0)),
-        a(3, Method::SimulatorHc),
-        a(3, Method::OtherSimulatorHc(0)),
+        a(learned, Method::GaussNewton),
+        a(other, Method::GaussNewton),
+        a(learned, Method::SimulatorHc),
+        a(learned, Method::OtherSimulatorHc(0)),
+        a(other, Method::SimulatorHc),
+        a(other, Method::OtherSimulatorHc(0)),
     ];
     assert_eq!(schedule, expect);
-    let listed =
-        [a(0, Method::OtherSimulatorHc(0)), a(3, Method::GaussNewton), a(3, Method::SimulatorHc), a(3, Method::OtherSimulatorHc(0))];
+    let listed = [
+        a(learned, Method::OtherSimulatorHc(0)),
+        a(other, Method::GaussNewton),
+        a(other, Method::SimulatorHc),
+        a(other, Method::OtherSimulatorHc(0)),
+    ];
 
     let seed = 11;
     println!("seed {seed}");
@@ -223,10 +230,10 @@ fn the_other_starts_and_simulators_run_after_the_learned_start() {
             let (starts, simulations) = (OTHER_STARTS.load(Ordering::SeqCst), OTHER_SIMULATIONS.load(Ordering::SeqCst));
             let solved = solver.run_pipeline(&p, &[attempt], false, None).expect("the listed attempt solves the line");
             assert!((solved.x[0] - truth[0]).abs() < 1e-9, "{attempt:?}: slope {} for {}", solved.x[0], truth[0]);
-            assert_eq!(solved.origin, Origin::Path { provider: attempt.provider, method: attempt.method });
+            assert_eq!(solved.origin, SolverOrigin::Attempt(attempt));
             let ran_start = OTHER_STARTS.load(Ordering::SeqCst) > starts;
             let ran_simulator = OTHER_SIMULATIONS.load(Ordering::SeqCst) > simulations;
-            assert_eq!(ran_start, attempt.provider == 3, "{attempt:?}: the other start ran: {ran_start}");
+            assert_eq!(ran_start, attempt.start == other, "{attempt:?}: the other start ran: {ran_start}");
             assert_eq!(
                 ran_simulator,
                 attempt.method == Method::OtherSimulatorHc(0),
@@ -282,13 +289,12 @@ fn restarts_start_from_the_learned_hypothesis_and_come_last() {
     std::fs::remove_dir_all(&dir).ok();
     let solver = Solver::with_weights(Restarted::<3>, &weights, 0.0).expect("builds");
 
-    // One hypothesis, no other starts: the restarts at providers 3, 4, 5, Gauss-Newton each,
-    // after every other attempt.
-    let restarts: Vec<Attempt> = (0..3).map(|k| Attempt { provider: restart_provider(1, 0, k), method: Method::GaussNewton }).collect();
-    assert_eq!(restarts.iter().map(|a| a.provider).collect::<Vec<_>>(), [3, 4, 5]);
+    // One hypothesis, no other starts: the three restarts, Gauss-Newton each, after every other
+    // attempt.
+    let restarts: Vec<SolverAttempt> = (0..3).map(|k| SolverAttempt::new(StartId::Restart(k), Method::GaussNewton)).collect();
     let schedule = solver.schedule();
     assert!(schedule.len() > 3 && schedule.ends_with(&restarts), "schedule {schedule:?}");
-    assert_eq!(schedule.iter().filter(|a| a.provider >= 3).count(), 3, "nothing else at the restarts' providers");
+    assert_eq!(schedule.iter().filter(|a| matches!(a.start, StartId::Restart(_))).count(), 3, "no other attempt from a restart");
 
     let seed = 12;
     println!("seed {seed}");
@@ -296,7 +302,7 @@ fn restarts_start_from_the_learned_hypothesis_and_come_last() {
     for _ in 0..5 {
         let (p, truth) = Restarted::<3>.scene(&mut rng, 0.0);
         // The learned hypothesis, as the pipeline's own start attempt returns it (validated or not).
-        let hypothesis = match solver.run_pipeline(&p, &[Attempt { provider: 0, method: Method::Start }], false, None) {
+        let hypothesis = match solver.run_pipeline(&p, &[SolverAttempt::new(StartId::LEARNED, Method::Start)], false, None) {
             Ok(s) => s.x[0],
             Err(PipelineError::NotValidated(s)) => s.x[0],
             Err(e) => panic!("the learned start: {e:?}"),
@@ -312,7 +318,7 @@ fn restarts_start_from_the_learned_hypothesis_and_come_last() {
                 (1, other) => panic!("restart 1 does not exist, yet: {other:?}"),
                 (_, Ok(solved)) => {
                     assert!((solved.x[0] - truth[0]).abs() < 1e-9, "restart {k}: slope {} for {}", solved.x[0], truth[0]);
-                    assert_eq!(solved.origin, Origin::Path { provider: attempt.provider, method: Method::GaussNewton });
+                    assert_eq!(solved.origin, SolverOrigin::Attempt(*attempt));
                 }
                 (_, Err(e)) => panic!("restart {k}: {e:?}"),
             }
@@ -348,7 +354,7 @@ fn the_problems_solve_settings_reach_every_path() {
     let weights = std::fs::read(trained_weights(&dir)).unwrap();
     std::fs::remove_dir_all(&dir).ok();
     let (line, one_step) = (Solver::with_weights(Line, &weights, 0.0).unwrap(), Solver::with_weights(OneStep, &weights, 0.0).unwrap());
-    let path = [Attempt { provider: 0, method: Method::SimulatorHc }];
+    let path = [SolverAttempt::new(StartId::LEARNED, Method::SimulatorHc)];
     let seed = 13;
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -358,7 +364,7 @@ fn the_problems_solve_settings_reach_every_path() {
         // The same path with the default settings solves; with one step it stops at the limit
         // (unless the learned start is already the root).
         let solved = line.run_pipeline(&p, &path, false, None).expect("the default settings track the line");
-        assert_eq!(solved.origin, Origin::Path { provider: 0, method: Method::SimulatorHc });
+        assert_eq!(solved.origin, SolverOrigin::Attempt(path[0]));
         match one_step.run_pipeline(&p, &path, false, None) {
             Err(PipelineError::NoEndPoint { last: Some(e), .. }) => {
                 assert!(e.to_string().to_lowercase().contains("step"), "{e}");

@@ -50,7 +50,7 @@ pub struct Failures {
 }
 
 impl Failures {
-    fn count<E: std::error::Error, C: std::fmt::Debug, const NX: usize>(&mut self, e: &PipelineError<E, C, NX>) {
+    fn count<E: std::error::Error, C: std::fmt::Debug, const NX: usize, O: std::fmt::Debug>(&mut self, e: &PipelineError<E, C, NX, O>) {
         match e {
             PipelineError::Input(_) => self.input += 1,
             PipelineError::NoEndPoint { last: Some(AttemptError::Simulator(_)), .. } => self.simulator += 1,
@@ -173,12 +173,14 @@ fn tally<D, R, const NX: usize>(
 }
 
 /// Runs `solve` on every trial `(data, truth)`; `score` is the bench's criterion (a closure
-/// `|x, truth| -> bool`, or a [`Score`] with named errors).
-pub fn bench_row<D, C, E, F, const NX: usize>(name: &str, trials: &[(D, SVector<f64, NX>)], score: &dyn Score<NX>, solve: F) -> BenchRow
+/// `|x, truth| -> bool`, or a [`Score`] with named errors). The solution's origin, of any kind
+/// (the pipeline's or the library solver's), is not looked at.
+pub fn bench_row<D, C, E, O, F, const NX: usize>(name: &str, trials: &[(D, SVector<f64, NX>)], score: &dyn Score<NX>, solve: F) -> BenchRow
 where
     E: std::error::Error,
     C: std::fmt::Debug,
-    F: FnMut(&D) -> Result<Solved<C, NX>, PipelineError<E, C, NX>>,
+    O: std::fmt::Debug,
+    F: FnMut(&D) -> Result<Solved<C, NX, O>, PipelineError<E, C, NX, O>>,
 {
     tally(name, trials, score, solve, |result| match result {
         Ok(s) => Outcome::Returned(s.x),

@@ -2,7 +2,7 @@
 
 use super::path::{gauss_newton, simulator_hc};
 use super::{
-    Attempt, AttemptError, Canonicalize, Fallback, Method, Origin, PipelineError, Solved, StageTimes, StartError, StartProvider,
+    Attempt, AttemptError, Canonicalize, Fallback, Method, Origin, PipelineError, Schedule, Solved, StageTimes, StartError, StartProvider,
     StartSimulator, TargetParameters, Validator, Verdict,
 };
 use crate::tracker::{NewtonOptions, TrackStats, TrackerOptions};
@@ -37,8 +37,21 @@ impl Default for PipelineOptions {
 }
 
 /// A problem's pieces and the executor's settings. `P` is the compiled system
-/// (`#[simhc_problem]`), `D` the user's data.
-pub struct Pipeline<'a, P, D: ?Sized, T, S: ?Sized, V, const NX: usize, const NF: usize, const NP: usize, const NC: usize> {
+/// (`#[simhc_problem]`), `D` the user's data, `A` the schedule's kind ([`Schedule`]: a slice of
+/// [`Attempt`]s unless [`Pipeline::with_schedule_of`] gave another).
+pub struct Pipeline<
+    'a,
+    P,
+    D: ?Sized,
+    T,
+    S: ?Sized,
+    V,
+    const NX: usize,
+    const NF: usize,
+    const NP: usize,
+    const NC: usize,
+    A: ?Sized = [Attempt],
+> {
     /// Target parameters of the data.
     pub target: &'a T,
     /// Start providers, tried in this order.
@@ -52,7 +65,7 @@ pub struct Pipeline<'a, P, D: ?Sized, T, S: ?Sized, V, const NX: usize, const NF
     /// Candidates when no path validated.
     pub fallback: Option<&'a dyn Fallback<D, NX, NP>>,
     /// The attempts in order; `None`: one Simulator HC path per start provider.
-    pub schedule: Option<&'a [Attempt]>,
+    pub schedule: Option<&'a A>,
     /// Executor settings.
     pub options: PipelineOptions,
     problem: PhantomData<fn() -> P>,
@@ -85,7 +98,18 @@ where
             problem: PhantomData,
         }
     }
+}
 
+impl<'a, P, D, T, S, V, const NX: usize, const NF: usize, const NP: usize, const NC: usize, A>
+    Pipeline<'a, P, D, T, S, V, NX, NF, NP, NC, A>
+where
+    P: CoefficientForm<NX, NF, NP, NC> + ProblemLayout,
+    D: ?Sized,
+    T: TargetParameters<D, NP>,
+    S: StartSimulator<D, NX, NF, NP> + ?Sized,
+    V: Validator<D, NX>,
+    A: Schedule + ?Sized,
+{
     /// The same pipeline with other simulators, which [`Method::OtherSimulatorHc`] attempts of
     /// the schedule name by index.
     pub fn with_other_simulators(mut self, simulators: &'a [&'a dyn StartSimulator<D, NX, NF, NP>]) -> Self {
@@ -100,10 +124,17 @@ where
     }
 
     /// The same pipeline with an explicit schedule of attempts (for example each start first
-    /// with Gauss-Newton, then with Simulator HC). A start is computed once per provider.
-    pub fn with_schedule(mut self, schedule: &'a [Attempt]) -> Self {
-        self.schedule = Some(schedule);
-        self
+    /// with Gauss-Newton, then with Simulator HC). A start is computed once for attempts of its
+    /// provider in a row.
+    pub fn with_schedule(self, schedule: &'a [Attempt]) -> Pipeline<'a, P, D, T, S, V, NX, NF, NP, NC> {
+        self.with_schedule_of(schedule)
+    }
+
+    /// [`Pipeline::with_schedule`] with a schedule of another kind, read one attempt at a time
+    /// ([`Schedule`]: a caller's attempts in its own terms).
+    pub fn with_schedule_of<Q: Schedule + ?Sized>(self, schedule: &'a Q) -> Pipeline<'a, P, D, T, S, V, NX, NF, NP, NC, Q> {
+        let Pipeline { target, starts, simulator, other_simulators, validator, fallback, schedule: _, options, problem } = self;
+        Pipeline { target, starts, simulator, other_simulators, validator, fallback, schedule: Some(schedule), options, problem }
     }
 
     /// The same pipeline with other options.
@@ -155,7 +186,7 @@ where
     /// Solves `data` with other start providers (a caller's guess, an ablation), in order.
     /// One Simulator HC path per provider; the pipeline's schedule is not used.
     pub fn solve_with(&self, data: &D, starts: &[&dyn StartProvider<D, NX>], fallback: bool) -> Outcome<T, V, D, NX, NP> {
-        self.run(data, starts, None, fallback)
+        self.run::<[Attempt]>(data, starts, None, fallback)
     }
 
     /// Up to `max` end points that are accepted or plausible, in the order of the schedule,
@@ -239,11 +270,11 @@ where
         }
     }
 
-    fn run(
+    fn run<Q: Schedule + ?Sized>(
         &self,
         data: &D,
         starts: &[&dyn StartProvider<D, NX>],
-        schedule: Option<&[Attempt]>,
+        schedule: Option<&Q>,
         fallback: bool,
     ) -> Outcome<T, V, D, NX, NP> {
         let o = &self.options;
@@ -345,9 +376,9 @@ fn no_other_simulator(k: usize) -> AttemptError {
 /// The attempts of a schedule (by default one Simulator HC path per provider), each with its
 /// start or the reason it cannot run. A provider's start is computed once for attempts of it in
 /// a row; `start_time` adds up the time spent in the providers.
-struct Plan<'s, D: ?Sized, const NX: usize> {
+struct Plan<'s, D: ?Sized, const NX: usize, Q: ?Sized> {
     starts: &'s [&'s dyn StartProvider<D, NX>],
-    schedule: Option<&'s [Attempt]>,
+    schedule: Option<&'s Q>,
     other_simulators: usize,
     data: &'s D,
     next: usize,
@@ -355,18 +386,18 @@ struct Plan<'s, D: ?Sized, const NX: usize> {
     start_time: Duration,
 }
 
-impl<'s, D: ?Sized, const NX: usize> Plan<'s, D, NX> {
-    fn new(starts: &'s [&'s dyn StartProvider<D, NX>], schedule: Option<&'s [Attempt]>, other_simulators: usize, data: &'s D) -> Self {
+impl<'s, D: ?Sized, const NX: usize, Q: Schedule + ?Sized> Plan<'s, D, NX, Q> {
+    fn new(starts: &'s [&'s dyn StartProvider<D, NX>], schedule: Option<&'s Q>, other_simulators: usize, data: &'s D) -> Self {
         Self { starts, schedule, other_simulators, data, next: 0, current: None, start_time: Duration::ZERO }
     }
 }
 
-impl<D: ?Sized, const NX: usize> Iterator for Plan<'_, D, NX> {
+impl<D: ?Sized, const NX: usize, Q: Schedule + ?Sized> Iterator for Plan<'_, D, NX, Q> {
     type Item = (Attempt, Result<SVector<f64, NX>, AttemptError>);
 
     fn next(&mut self) -> Option<Self::Item> {
         let attempt = match self.schedule {
-            Some(schedule) => *schedule.get(self.next)?,
+            Some(schedule) => schedule.attempt(self.next)?,
             None if self.next < self.starts.len() => Attempt { provider: self.next, method: Method::SimulatorHc },
             None => return None,
         };

@@ -172,6 +172,22 @@ pub struct Attempt {
     pub method: Method,
 }
 
+/// The attempts a pipeline runs, in order, read one at a time ([`Pipeline::with_schedule`]): a
+/// slice of [`Attempt`]s, or a caller's schedule in its own terms that it turns into positions
+/// of the providers it gave the pipeline as the pipeline reads them (the library solver's
+/// attempts name their starts, `simhc::solver::SolverAttempt`). Read one at a time so that such
+/// a schedule needs no copy, and a solve no allocation.
+pub trait Schedule {
+    /// Attempt `i` of the schedule (0 is the first); `None` past its end.
+    fn attempt(&self, i: usize) -> Option<Attempt>;
+}
+
+impl Schedule for [Attempt] {
+    fn attempt(&self, i: usize) -> Option<Attempt> {
+        self.get(i).copied()
+    }
+}
+
 /// What produced a solution.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Origin {
@@ -189,15 +205,17 @@ pub enum Origin {
     },
 }
 
-/// A solution with its diagnostics.
+/// A solution with its diagnostics. `O` says what produced it: the pipeline's [`Origin`] (a
+/// provider by its index), or a caller's origin in its own terms ([`Solved::with_origin`]; the
+/// library solver names its starts).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Solved<C, const NX: usize> {
+pub struct Solved<C, const NX: usize, O = Origin> {
     /// The unknowns.
     pub x: SVector<f64, NX>,
     /// The start of the path that produced `x` (`x` itself for the fallback).
     pub start: SVector<f64, NX>,
     /// What produced `x`.
-    pub origin: Origin,
+    pub origin: O,
     /// Attempts made, the fallback counted as one.
     pub attempts: usize,
     /// The validation of `x`.
@@ -206,6 +224,14 @@ pub struct Solved<C, const NX: usize> {
     pub stats: TrackStats,
     /// Stage times.
     pub times: StageTimes,
+}
+
+impl<C, const NX: usize, O> Solved<C, NX, O> {
+    /// The same solution with its origin told as `name` tells it.
+    pub fn with_origin<Q>(self, name: impl FnOnce(O) -> Q) -> Solved<C, NX, Q> {
+        let Solved { x, start, origin, attempts, check, stats, times } = self;
+        Solved { x, start, origin: name(origin), attempts, check, stats, times }
+    }
 }
 
 /// Why one attempt produced no end point.
@@ -224,7 +250,7 @@ pub enum AttemptError {
 
 /// Why a solve returned no validated solution.
 #[derive(Debug, Clone, PartialEq, Error)]
-pub enum PipelineError<E: std::error::Error, C: Debug, const NX: usize> {
+pub enum PipelineError<E: std::error::Error, C: Debug, const NX: usize, O: Debug = Origin> {
     /// The data is not a problem instance.
     #[error("input: {0}")]
     Input(E),
@@ -240,5 +266,17 @@ pub enum PipelineError<E: std::error::Error, C: Debug, const NX: usize> {
     /// solution. Held inline, not boxed: inside RANSAC most samples end here, and a solve
     /// allocates nothing.
     #[error("no end point validated after {} attempts (best: {:?})", .0.attempts, .0.check)]
-    NotValidated(Solved<C, NX>),
+    NotValidated(Solved<C, NX, O>),
+}
+
+impl<E: std::error::Error, C: Debug, const NX: usize, O: Debug> PipelineError<E, C, NX, O> {
+    /// The same error with the origin of a flagged end point told as `name` tells it
+    /// ([`Solved::with_origin`]).
+    pub fn with_origin<Q: Debug>(self, name: impl FnOnce(O) -> Q) -> PipelineError<E, C, NX, Q> {
+        match self {
+            PipelineError::Input(e) => PipelineError::Input(e),
+            PipelineError::NoEndPoint { attempts, last } => PipelineError::NoEndPoint { attempts, last },
+            PipelineError::NotValidated(s) => PipelineError::NotValidated(s.with_origin(name)),
+        }
+    }
 }

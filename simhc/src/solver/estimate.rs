@@ -28,9 +28,9 @@
 use super::library::Solver;
 use super::problem::DeclaredProblem;
 use super::residual::row_equations;
-use super::schedule::sample_schedule;
+use super::schedule::{sample_schedule, SolverAttempt};
 use crate::pipeline::learned::NonFiniteParameter;
-use crate::pipeline::{Attempt, Method};
+use crate::pipeline::Method;
 use crate::ransac::{ransac, Estimator, RansacOptions, RansacResult};
 use crate::{Problem, ProblemLayout};
 use nalgebra::{SMatrix, SVector};
@@ -188,7 +188,7 @@ where
     globals: &'a [f64],
     threshold: f64,
     /// The attempts on a sample ([`sample_attempts`]), made once per estimate.
-    attempts: Vec<Attempt>,
+    attempts: Vec<SolverAttempt>,
     sizes: PhantomData<fn() -> [(); NC]>,
 }
 
@@ -201,7 +201,7 @@ where
 /// bench grps --experiment ransac --ransac-trials 300 --seed 1`): 99.7 % in 115 ms a call
 /// with the first 8 of these, against 99.7 % in 242 ms with the first 13 of the schedule
 /// (BENCHMARKS.md, 2026-12-05).
-fn sample_attempts(schedule: &[Attempt], attempts: usize) -> Vec<Attempt> {
+fn sample_attempts(schedule: &[SolverAttempt], attempts: usize) -> Vec<SolverAttempt> {
     schedule.iter().filter(|a| !matches!(a.method, Method::OtherSimulatorHc(_))).take(attempts).copied().collect()
 }
 
@@ -473,21 +473,24 @@ where
 
 #[cfg(test)]
 mod tests {
+    use super::super::schedule::{SolverAttempt, StartId};
     use super::sample_attempts;
-    use crate::pipeline::{Attempt, Method};
+    use crate::pipeline::Method;
 
     #[test]
     fn samples_leave_out_the_other_simulators_paths_and_keep_the_order() {
-        let at = |provider, method| Attempt { provider, method };
+        let (refined, learned, other) =
+            (StartId::Learned { rank: 0, refined: true }, StartId::Learned { rank: 0, refined: false }, StartId::Other(0));
+        let at = |start, method| SolverAttempt { start, method };
         let schedule = [
-            at(1, Method::Start),
-            at(1, Method::GaussNewton),
-            at(3, Method::GaussNewton),
-            at(0, Method::SimulatorHc),
-            at(0, Method::OtherSimulatorHc(0)),
-            at(3, Method::SimulatorHc),
-            at(3, Method::OtherSimulatorHc(0)),
-            at(4, Method::SimulatorHc),
+            at(refined, Method::Start),
+            at(refined, Method::GaussNewton),
+            at(other, Method::GaussNewton),
+            at(learned, Method::SimulatorHc),
+            at(learned, Method::OtherSimulatorHc(0)),
+            at(other, Method::SimulatorHc),
+            at(other, Method::OtherSimulatorHc(0)),
+            at(StartId::Other(1), Method::SimulatorHc),
         ];
         let expected = [
             at(1, Method::Start),

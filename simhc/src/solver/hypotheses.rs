@@ -5,10 +5,10 @@
 //! tracked in that order before any fallback. Why rank: the network is trained so that *one*
 //! of its guesses is close, not a given one; its scores are trained to say which.
 //!
-//! The start providers of a solve are laid out as [`super::schedule::provider`] says: the first-ranked guess
-//! plain and refined at 0 and 1 (where a schedule of one hypothesis, [`super::shipped_schedule`],
-//! expects them), index 2 free for a caller's extra provider (the bench's random start), then
-//! the other ranks in pairs.
+//! A schedule names a hypothesis by its rank, as predicted or refined on all the data
+//! ([`super::StartId::Learned`]); a schedule of one hypothesis ([`super::shipped_schedule`])
+//! names the first-ranked only, and [`super::schedule::ranked_schedule`] repeats it for every
+//! rank.
 
 use crate::pipeline::{StartError, StartProvider, MAX_HYPOTHESES};
 use nalgebra::SVector;

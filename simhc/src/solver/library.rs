@@ -29,11 +29,11 @@ use super::hypotheses::{LearnedHypotheses, RankedStart, RankedStarts};
 use super::instance::{InstanceProblem, OwnCanon, OwnFallback, OwnSimulator, Parts, RefinedStart};
 use super::parts::FirstRowsError;
 use super::restarts::{RestartStart, MAX_RESTARTS};
-use super::schedule::{other_provider, other_starts_first, provider, provider_count, restart_provider, shipped_schedule, solver_schedule};
+use super::schedule::{other_starts_first, shipped_schedule, solver_schedule, SolverAttempt, StartId};
 use crate::certify::{certify_rows, choose_rows, Certificate, CertifyError};
 use crate::pipeline::{
-    Attempt, AttemptError, Fallback, Origin, Pipeline, PipelineError, PipelineOptions, Solved, StartError, StartProvider, StartSimulator,
-    Validator, MAX_HYPOTHESES,
+    Attempt, AttemptError, Fallback, Origin, Pipeline, PipelineError, PipelineOptions, Schedule, Solved, StartError, StartProvider,
+    StartSimulator, Validator, MAX_HYPOTHESES,
 };
 use crate::regressor::RegressorError;
 use nalgebra::SVector;
@@ -48,8 +48,8 @@ use thiserror::Error;
 pub struct Solution<C, const NX: usize> {
     /// The unknowns, in the layout's order (in the user's frame).
     pub x: SVector<f64, NX>,
-    /// What produced them: an attempt of [`shipped_schedule`] or a fallback candidate.
-    pub origin: Origin,
+    /// What produced them: an attempt of [`InstanceSolver::schedule`] or a fallback candidate.
+    pub origin: SolverOrigin,
     /// Attempts made, the fallback counted as one.
     pub attempts: usize,
     /// The validator's figures on all the data.
@@ -117,34 +117,17 @@ pub enum Certification {
     Require,
 }
 
-/// A start of a solve, by name ([`InstanceSolver::start_of`]).
+/// What produced a solver's solution: one of its attempts (its start by name), or a candidate
+/// of the all-roots fallback.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StartId {
-    /// Learned hypothesis `rank` (0: the first-ranked), as predicted or refined on all the data.
-    Learned {
-        /// Its rank among the hypotheses.
-        rank: usize,
-        /// Whether it was refined on all the data first.
-        refined: bool,
+pub enum SolverOrigin {
+    /// The attempt from this start with this method.
+    Attempt(SolverAttempt),
+    /// Candidate number `candidate` of the fallback.
+    Fallback {
+        /// Index among the fallback's candidates.
+        candidate: usize,
     },
-    /// The caller's start ([`InstanceSolver::run_pipeline`]'s `extra`).
-    Given,
-    /// The problem's `j`-th other start ([`InstanceProblem::extra_starts`]).
-    Other(usize),
-    /// Restart `k` around the first-ranked hypothesis.
-    Restart(usize),
-}
-
-impl std::fmt::Display for StartId {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            StartId::Learned { rank, refined: false } => write!(f, "learned {rank}"),
-            StartId::Learned { rank, refined: true } => write!(f, "learned {rank}, refined"),
-            StartId::Given => write!(f, "given"),
-            StartId::Other(j) => write!(f, "other {j}"),
-            StartId::Restart(k) => write!(f, "restart {k}"),
-        }
-    }
 }
 
 /// Most other starts, and most other simulators, a problem may bring
@@ -184,11 +167,11 @@ pub type Check<V, const NX: usize, const ND: usize> = CheckOf<V, NX, SVector<f64
 /// What the pipeline of a solve returns ([`InstanceSolver::run_pipeline`]), for a problem whose
 /// validator of the data `D` is `V`.
 pub type InstancePipelineOutcome<V, const NX: usize, D> =
-    Result<Solved<CheckOf<V, NX, D>, NX>, PipelineError<FirstRowsError, CheckOf<V, NX, D>, NX>>;
+    Result<Solved<CheckOf<V, NX, D>, NX, SolverOrigin>, PipelineError<FirstRowsError, CheckOf<V, NX, D>, NX, SolverOrigin>>;
 
 /// One end point of [`InstanceSolver::plausible_end_points`], for a problem whose validator of
 /// the data `D` is `V`.
-pub type PlausibleEndPoint<V, const NX: usize, D> = Solved<CheckOf<V, NX, D>, NX>;
+pub type PlausibleEndPoint<V, const NX: usize, D> = Solved<CheckOf<V, NX, D>, NX, SolverOrigin>;
 
 /// [`InstancePipelineOutcome`] of a data vector.
 pub type PipelineOutcome<V, const NX: usize, const ND: usize> = InstancePipelineOutcome<V, NX, SVector<f64, ND>>;
@@ -219,7 +202,7 @@ where
     /// [`InstanceProblem::extra_simulators`], made once.
     other_simulators: Vec<SharedSimulator<D, NX, NF, NP>>,
     /// [`solver_schedule`] of [`shipped_schedule`].
-    schedule: Vec<Attempt>,
+    schedule: Vec<SolverAttempt>,
     /// [`InstanceProblem::solve_options`], made once.
     options: PipelineOptions,
     /// [`InstanceProblem::restarts`].
@@ -281,7 +264,7 @@ where
         let mut schedule =
             solver_schedule(shipped_schedule(problem.refines()), hypotheses, other_starts.len(), other_simulators.len(), restarts);
         if problem.other_starts_first() {
-            other_starts_first(&mut schedule, hypotheses, other_starts.len(), restarts);
+            other_starts_first(&mut schedule, restarts);
         }
         let options = problem.solve_options();
         Ok(Self {
@@ -348,32 +331,9 @@ where
 
     /// The attempts of [`InstanceSolver::solve`]: [`shipped_schedule`] over the learned start's
     /// ranked hypotheses, the problem's other starts and simulators and its restarts, every
-    /// start's Gauss-Newton before the first path ([`solver_schedule`]; the providers are laid
-    /// out as [`super::schedule::provider`], [`super::schedule::other_provider`] and
-    /// [`super::schedule::restart_provider`] say).
-    pub fn schedule(&self) -> &[Attempt] {
+    /// start's Gauss-Newton before the first path ([`solver_schedule`]).
+    pub fn schedule(&self) -> &[SolverAttempt] {
         &self.schedule
-    }
-
-    /// Which start a provider slot of [`InstanceSolver::run_pipeline`] holds, by name (an
-    /// [`Origin::Path`]'s `provider`): a learned hypothesis (plain or refined on all the data),
-    /// the caller's start, one of the problem's other starts, or a restart.
-    pub fn start_of(&self, provider: usize) -> StartId {
-        let (count, others) = (self.learned.hypotheses().max(1), self.other_starts.len());
-        if provider == 2 {
-            return StartId::Given;
-        }
-        if let Some(rank) = (0..count).find(|&r| super::schedule::provider(r, false) == provider) {
-            return StartId::Learned { rank, refined: false };
-        }
-        if let Some(rank) = (0..count).find(|&r| super::schedule::provider(r, true) == provider) {
-            return StartId::Learned { rank, refined: true };
-        }
-        let first_other = other_provider(count, 0);
-        if (first_other..first_other + others).contains(&provider) {
-            return StartId::Other(provider - first_other);
-        }
-        StartId::Restart(provider.saturating_sub(restart_provider(count, others, 0)))
     }
 
     /// Solves the data (all rows, the data layout's order for a row-wise problem): a validated
@@ -395,20 +355,23 @@ where
         }
     }
 
-    /// The pipeline's own result of a solve with these attempts over the providers of
-    /// [`super::schedule::provider`], `extra` in slot 2 (the bench's random start), the
-    /// problem's other starts at [`super::schedule::other_provider`] and its restarts at
-    /// [`super::schedule::restart_provider`], with or without the all-roots fallback: what the
-    /// bench tallies.
+    /// The pipeline's own result of a solve with these attempts, with or without the all-roots
+    /// fallback: what the bench tallies. `given` is the start of [`StartId::Given`] (the bench's
+    /// random start, a caller's guess), handed the data in the problem's canonical frame; an
+    /// attempt from a start this solve does not have (no `given`, a rank beyond the learned
+    /// start's hypotheses, an other start or restart beyond the problem's) is no attempt.
     pub fn run_pipeline(
         &self,
         data: &D,
-        schedule: &[Attempt],
+        schedule: &[SolverAttempt],
         fallback: bool,
-        extra: Option<&dyn StartProvider<D, NX>>,
+        given: Option<&dyn StartProvider<D, NX>>,
     ) -> InstancePipelineOutcome<S::Validator, NX, D> {
-        self.with_pipeline(data, schedule, fallback, extra, |pipeline, canon| pipeline.solve_canonical(canon, data))
-            .map_err(PipelineError::Input)?
+        let result = self.with_pipeline(data, schedule, fallback, given, |pipeline, canon, positions| {
+            let name = |origin| positions.named(origin);
+            pipeline.solve_canonical(canon, data).map(|s| s.with_origin(name)).map_err(|e| e.with_origin(name))
+        });
+        result.map_err(PipelineError::Input)?
     }
 
     /// Up to `max` distinct end points (`same` tells duplicates) that the validator accepts or
@@ -418,24 +381,42 @@ where
     pub fn plausible_end_points(
         &self,
         data: &D,
-        schedule: &[Attempt],
+        schedule: &[SolverAttempt],
         max: usize,
         same: impl Fn(&SVector<f64, NX>, &SVector<f64, NX>) -> bool,
     ) -> Result<Vec<PlausibleEndPoint<S::Validator, NX, D>>, FirstRowsError> {
-        self.with_pipeline(data, schedule, false, None, |pipeline, canon| pipeline.plausible_end_points_canonical(canon, data, max, same))?
+        self.with_pipeline(data, schedule, false, None, |pipeline, canon, positions| {
+            let found = pipeline.plausible_end_points_canonical(canon, data, max, same)?;
+            Ok(found.into_iter().map(|s| s.with_origin(|origin| positions.named(origin))).collect())
+        })?
     }
 
-    /// The pipeline of a solve of `data` ([`InstanceSolver::run_pipeline`]) and the problem's
-    /// canonical frame, handed to `run`; an input error when the data is not an instance.
+    /// The pipeline of a solve of `data` ([`InstanceSolver::run_pipeline`]), the problem's
+    /// canonical frame and where the solve's starts sit among the pipeline's providers (to name
+    /// the origins it returns), handed to `run`; an input error when the data is not an
+    /// instance. The only place that turns the starts' names into positions.
     fn with_pipeline<R>(
         &self,
         data: &D,
-        schedule: &[Attempt],
+        schedule: &[SolverAttempt],
         fallback: bool,
-        extra: Option<&dyn StartProvider<D, NX>>,
+        given: Option<&dyn StartProvider<D, NX>>,
         run: impl FnOnce(
-            &Pipeline<'_, S::Tracked, D, Parts<'_, S, NX, NF, NC>, OwnSimulator<'_, S, NC>, S::Validator, NX, NF, NP, NC>,
+            &Pipeline<
+                '_,
+                S::Tracked,
+                D,
+                Parts<'_, S, NX, NF, NC>,
+                OwnSimulator<'_, S, NC>,
+                S::Validator,
+                NX,
+                NF,
+                NP,
+                NC,
+                PositionedSchedule<'_>,
+            >,
             &OwnCanon<'_, S, NF, NP, NC>,
+            StartPositions,
         ) -> R,
     ) -> Result<R, FirstRowsError> {
         // The user's data is checked before a canonical frame mixes its rows, so that an error
@@ -452,23 +433,31 @@ where
         let none = NoStart;
         let restarts: [RestartStart<'_, '_, S, S::Learned, NX, NF, NP, NC>; MAX_RESTARTS] =
             std::array::from_fn(|k| RestartStart { set: &set, problem, k });
-        const SLOTS: usize = provider_count(MAX_HYPOTHESES) + MAX_OTHERS + MAX_RESTARTS;
-        let mut starts: [&dyn StartProvider<D, NX>; SLOTS] = [&none; SLOTS];
-        for rank in 0..count {
-            starts[provider(rank, false)] = &ranked[rank];
-            starts[provider(rank, true)] = &refined[rank];
+        // `with_learned` checked the counts against the arrays' sizes.
+        let positions = StartPositions {
+            hypotheses: count.min(MAX_HYPOTHESES),
+            given: given.is_some(),
+            others: self.other_starts.len(),
+            restarts: self.restarts.min(MAX_RESTARTS),
+        };
+        const PROVIDERS: usize = 2 * MAX_HYPOTHESES + 1 + MAX_OTHERS + MAX_RESTARTS + 1;
+        let mut starts: [&dyn StartProvider<D, NX>; PROVIDERS] = [&none; PROVIDERS];
+        for rank in 0..positions.hypotheses {
+            starts[positions.position(StartId::Learned { rank, refined: false })] = &ranked[rank];
+            starts[positions.position(StartId::Learned { rank, refined: true })] = &refined[rank];
         }
-        if let Some(extra) = extra {
-            starts[2] = extra;
+        if let Some(given) = given {
+            starts[positions.position(StartId::Given)] = given;
         }
         for (j, other) in self.other_starts.iter().enumerate() {
-            starts[other_provider(count, j)] = &**other;
+            starts[positions.position(StartId::Other(j))] = &**other;
         }
-        let others = self.other_starts.len();
-        for (k, restart) in restarts.iter().enumerate().take(self.restarts) {
-            starts[restart_provider(count, others, k)] = restart;
+        for (k, restart) in restarts.iter().enumerate().take(positions.restarts) {
+            starts[positions.position(StartId::Restart(k))] = restart;
         }
-        let starts = &starts[..restart_provider(count, others, self.restarts)];
+        // The empty provider last: where every start this solve does not have sits.
+        let starts = &starts[..=positions.none()];
+        let schedule = PositionedSchedule { attempts: schedule, positions };
         let mut others: [&dyn StartSimulator<D, NX, NF, NP>; MAX_OTHERS] = [&simulator; MAX_OTHERS];
         for (slot, other) in others.iter_mut().zip(&self.other_simulators) {
             *slot = &**other;
@@ -476,7 +465,7 @@ where
         let others = &others[..self.other_simulators.len()];
         let all_roots = OwnFallback::<S, NF, NC>(problem);
         let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, starts, &simulator, &self.validator)
-            .with_schedule(schedule)
+            .with_schedule_of(&schedule)
             .with_other_simulators(others)
             .with_options(PipelineOptions { fallback, ..self.options });
         if let (true, Some(given)) = (fallback, &self.fallback) {
@@ -484,7 +473,7 @@ where
         } else if fallback && problem.has_fallback() {
             pipeline = pipeline.with_fallback(&all_roots);
         }
-        Ok(run(&pipeline, &OwnCanon::<S, NF, NP, NC>(problem)))
+        Ok(run(&pipeline, &OwnCanon::<S, NF, NP, NC>(problem), positions))
     }
 
     /// [`InstanceSolver::solve`] on every element of `data`, in order, across rayon's threads.
@@ -498,7 +487,93 @@ where
     }
 }
 
-/// An empty provider slot (slot 2 without a caller's provider).
+/// Where each start of one solve sits in the list of providers the solver gives the pipeline:
+/// the learned hypotheses in rank order, each predicted then refined; the caller's given start,
+/// when there is one; the problem's other starts; the restarts; last, one empty provider
+/// ([`NoStart`]), where every start that this solve does not have sits, so that an attempt from
+/// it is no attempt. Private to the solver: schedules name their starts ([`StartId`]), and the
+/// origins of what a solve returns are named back ([`StartPositions::named`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct StartPositions {
+    /// The learned start's hypotheses.
+    hypotheses: usize,
+    /// Whether the caller gave a start.
+    given: bool,
+    /// The problem's other starts.
+    others: usize,
+    /// The problem's restarts.
+    restarts: usize,
+}
+
+impl StartPositions {
+    fn first_other(&self) -> usize {
+        2 * self.hypotheses + usize::from(self.given)
+    }
+
+    fn first_restart(&self) -> usize {
+        self.first_other() + self.others
+    }
+
+    /// The empty provider's position, after every start's.
+    fn none(&self) -> usize {
+        self.first_restart() + self.restarts
+    }
+
+    /// The position of `start`; the empty provider's for a start this solve does not have.
+    fn position(&self, start: StartId) -> usize {
+        match start {
+            StartId::Learned { rank, refined } if rank < self.hypotheses => 2 * rank + usize::from(refined),
+            StartId::Given if self.given => 2 * self.hypotheses,
+            StartId::Other(j) if j < self.others => self.first_other() + j,
+            StartId::Restart(k) if k < self.restarts => self.first_restart() + k,
+            _ => self.none(),
+        }
+    }
+
+    /// The start at `position`, `None` at the empty provider's and past it.
+    fn start_at(&self, position: usize) -> Option<StartId> {
+        let learned = 2 * self.hypotheses;
+        if position < learned {
+            return Some(StartId::Learned { rank: position / 2, refined: position % 2 == 1 });
+        }
+        if self.given && position == learned {
+            return Some(StartId::Given);
+        }
+        if (self.first_other()..self.first_restart()).contains(&position) {
+            return Some(StartId::Other(position - self.first_other()));
+        }
+        (self.first_restart()..self.none()).contains(&position).then(|| StartId::Restart(position - self.first_restart()))
+    }
+
+    /// The pipeline's origin of an end point, named.
+    fn named(&self, origin: Origin) -> SolverOrigin {
+        match origin {
+            Origin::Path { provider, method } => match self.start_at(provider) {
+                Some(start) => SolverOrigin::Attempt(SolverAttempt { start, method }),
+                // The empty provider gives no start, so no end point comes from its position;
+                // an origin past every start is not this solve's and is told as a start the
+                // solve does not have.
+                None => SolverOrigin::Attempt(SolverAttempt { start: StartId::Other(usize::MAX), method }),
+            },
+            Origin::Fallback { candidate } => SolverOrigin::Fallback { candidate },
+        }
+    }
+}
+
+/// A solver's schedule as the pipeline reads it: each attempt's start at its position.
+struct PositionedSchedule<'s> {
+    attempts: &'s [SolverAttempt],
+    positions: StartPositions,
+}
+
+impl Schedule for PositionedSchedule<'_> {
+    fn attempt(&self, i: usize) -> Option<Attempt> {
+        let a = self.attempts.get(i)?;
+        Some(Attempt { provider: self.positions.position(a.start), method: a.method })
+    }
+}
+
+/// The empty provider: where a start sits that a solve does not have.
 struct NoStart;
 
 impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for NoStart {
@@ -506,6 +581,65 @@ impl<D: ?Sized, const NX: usize> StartProvider<D, NX> for NoStart {
         "none"
     }
     fn start(&self, _: &D) -> Result<SVector<f64, NX>, StartError> {
-        Err(StartError { provider: "none", reason: "no start provider in this slot".into() })
+        Err(StartError { provider: "none", reason: "no such start in this solve".into() })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::Method;
+
+    fn every_start(p: &StartPositions) -> Vec<StartId> {
+        let mut all: Vec<StartId> =
+            (0..p.hypotheses).flat_map(|rank| [false, true].map(|refined| StartId::Learned { rank, refined })).collect();
+        all.extend(p.given.then_some(StartId::Given));
+        all.extend((0..p.others).map(StartId::Other));
+        all.extend((0..p.restarts).map(StartId::Restart));
+        all
+    }
+
+    #[test]
+    fn every_start_has_its_own_position_and_is_named_back() {
+        for (hypotheses, given, others, restarts) in
+            [(1, false, 0, 0), (1, true, 3, 65), (4, false, 2, 5), (MAX_HYPOTHESES, true, MAX_OTHERS, MAX_RESTARTS)]
+        {
+            let p = StartPositions { hypotheses, given, others, restarts };
+            let all = every_start(&p);
+            let positions: Vec<usize> = all.iter().map(|&s| p.position(s)).collect();
+            assert_eq!(positions, (0..all.len()).collect::<Vec<_>>(), "{p:?}: the starts fill the list in order");
+            assert_eq!(p.none(), all.len(), "{p:?}: the empty provider comes last");
+            for &start in &all {
+                let origin = Origin::Path { provider: p.position(start), method: Method::GaussNewton };
+                assert_eq!(p.named(origin), SolverOrigin::Attempt(SolverAttempt { start, method: Method::GaussNewton }));
+            }
+            assert_eq!(p.start_at(p.none()), None);
+            assert_eq!(p.named(Origin::Fallback { candidate: 3 }), SolverOrigin::Fallback { candidate: 3 });
+        }
+    }
+
+    #[test]
+    fn a_start_the_solve_does_not_have_sits_at_the_empty_provider() {
+        let p = StartPositions { hypotheses: 2, given: false, others: 1, restarts: 3 };
+        let missing = [
+            StartId::Learned { rank: 2, refined: false },
+            StartId::Learned { rank: 7, refined: true },
+            StartId::Given,
+            StartId::Other(1),
+            StartId::Restart(3),
+        ];
+        for start in missing {
+            assert_eq!(p.position(start), p.none(), "{start}");
+        }
+        let schedule = [
+            SolverAttempt { start: StartId::Given, method: Method::Start },
+            SolverAttempt { start: StartId::Other(0), method: Method::Start },
+        ];
+        let read = PositionedSchedule { attempts: &schedule, positions: p };
+        assert_eq!(read.attempt(0), Some(Attempt { provider: p.none(), method: Method::Start }));
+        assert_eq!(read.attempt(1), Some(Attempt { provider: 4, method: Method::Start }));
+        assert_eq!(read.attempt(2), None);
+        let no_start: Result<SVector<f64, 2>, StartError> = StartProvider::<(), 2>::start(&NoStart, &());
+        assert!(no_start.is_err());
     }
 }

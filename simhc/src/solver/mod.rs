@@ -13,7 +13,7 @@
 //!
 //! - [`subsystem`]: all roots of a square subsystem;
 //! - [`residual`]: a row's equations and the default per-correspondence error;
-//! - [`schedule`]: what a solve tries in which order, over the slots of its start providers;
+//! - [`schedule`]: what a solve tries in which order, each attempt naming its start;
 //! - [`problem`]: the trait and its hook types;
 //! - [`parts`]: the parts a solve is assembled from (tracked parameters, random and given
 //!   starts, the canonical frame);
@@ -43,7 +43,7 @@ pub use estimate::{EstimateError, EstimateInfo};
 pub use hypotheses::{LearnedHypotheses, Ranked};
 pub use instance::{InstanceProblem, RowwiseLearned};
 pub use library::{
-    Certification, InstanceOutcome, InstanceSolver, Outcome, Solution, SolveError, Solver, SolverError, StartId, MAX_OTHERS,
+    Certification, InstanceOutcome, InstanceSolver, Outcome, Solution, SolveError, Solver, SolverError, SolverOrigin, MAX_OTHERS,
 };
 pub use many_rows::RowsSolution;
 pub use parts::{Canon, FirstRows, FirstRowsError, GivenStart, RandomStart};
@@ -51,5 +51,5 @@ pub use problem::{CanonicalFrame, DeclaredProblem, DegenerateInput, OtherSimulat
 pub use residual::row_residual;
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
 pub use rows::{ProblemOutputs, ProblemRows};
-pub use schedule::{other_provider, provider, restart_provider, sample_schedule, shipped_schedule};
+pub use schedule::{sample_schedule, shipped_schedule, SolverAttempt, StartId};
 pub use subsystem::{AllRoots, AllRootsFallback, SquareSubsystem};

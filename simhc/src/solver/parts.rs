@@ -87,7 +87,7 @@ impl<Q: ProblemLayout, const NP: usize, const ND: usize> TargetParameters<SVecto
 }
 
 /// A start the caller gives (a perturbed truth, a random draw made outside a timing), for any
-/// data: in the caller's slot of [`super::InstanceSolver::run_pipeline`], in the frame the
+/// data: as the given start of [`super::InstanceSolver::run_pipeline`], in the frame the
 /// pipeline solves in (the problem's canonical frame, where it has one).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GivenStart<const NX: usize>(pub SVector<f64, NX>);

@@ -7,9 +7,8 @@
 //! whole rotation group last, at a few microseconds per restart against the all-roots
 //! fallback's milliseconds.
 //!
-//! The restart providers follow the other starts in a solve's provider list
-//! ([`super::schedule::restart_provider`]), and their attempts come last before the fallback
-//! ([`super::schedule::restart_attempts`]).
+//! A schedule names restart `k` as [`super::StartId::Restart`]`(k)`, and the restarts'
+//! attempts come last before the fallback ([`super::schedule::restart_attempts`]).
 
 use super::hypotheses::{LearnedHypotheses, RankedStarts};
 use super::instance::InstanceProblem;
@@ -99,11 +98,11 @@ where
 
 #[cfg(test)]
 mod tests {
-    use super::super::schedule::{restart_attempts, restart_provider};
+    use super::super::schedule::{restart_attempts, SolverAttempt, StartId};
     use super::*;
     use crate::layout::FieldLayout;
     use crate::metrics::rotation_error_deg;
-    use crate::pipeline::{Attempt, Method};
+    use crate::pipeline::Method;
 
     const LAYOUT: Layout = Layout {
         unknowns: &[
@@ -139,12 +138,8 @@ mod tests {
     }
 
     #[test]
-    fn restarts_follow_the_other_starts() {
-        // One hypothesis: providers 0 and 1, slot 2 free, so the first restart is at 3.
-        assert_eq!(restart_provider(1, 0, 0), 3);
-        // Three hypotheses (providers 0, 1, 3, 4, 5, 6), two other starts (7, 8): restart 4 at 13.
-        assert_eq!(restart_provider(3, 2, 4), 13);
-        let a: Vec<Attempt> = restart_attempts(1, 3, 2).collect();
-        assert_eq!(a, [6, 7].map(|provider| Attempt { provider, method: Method::GaussNewton }));
+    fn the_restarts_attempts_are_gauss_newton_from_each_in_order() {
+        let a: Vec<SolverAttempt> = restart_attempts(2).collect();
+        assert_eq!(a, [0, 1].map(|k| SolverAttempt { start: StartId::Restart(k), method: Method::GaussNewton }));
     }
 }

@@ -493,11 +493,11 @@ mod tests {
             at(StartId::Other(1), Method::SimulatorHc),
         ];
         let expected = [
-            at(1, Method::Start),
-            at(1, Method::GaussNewton),
-            at(3, Method::GaussNewton),
-            at(0, Method::SimulatorHc),
-            at(3, Method::SimulatorHc),
+            at(refined, Method::Start),
+            at(refined, Method::GaussNewton),
+            at(other, Method::GaussNewton),
+            at(learned, Method::SimulatorHc),
+            at(other, Method::SimulatorHc),
         ];
         assert_eq!(sample_attempts(&schedule, 5), expected);
         assert_eq!(sample_attempts(&schedule, 2), expected[..2]);

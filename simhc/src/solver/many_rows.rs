@@ -51,12 +51,12 @@ where
         let layout = S::Data::LAYOUT;
         let data = checked_rows(&layout, rows, globals)?;
         let (n, instance) = (data.len(), layout.rows);
-        let first = Samples::<S, NX, NF, NP, NC, ND>::new(self, globals, 1.0);
+        let view = Samples::<S, NX, NF, NP, NC, ND>::new(self, globals, 1.0);
         let x0 = self
-            .solve(&first.instance(&data, 0..instance))
+            .solve(&view.instance(&data, 0..instance))
             .map_err(|e| EstimateError::FirstRowsNotSolved { rows: instance, reason: e.to_string() })?
             .x;
-        let largest = |x: &SVector<f64, NX>| data.iter().map(|row| first.row_error(x, row)).fold(0.0, f64::max);
+        let largest = |x: &SVector<f64, NX>| data.iter().map(|row| view.row_error(x, row)).fold(0.0, f64::max);
         let e0 = largest(&x0);
         if n == instance {
             return Ok(RowsSolution { x: x0, rows: n, refined: false, max_row_error: e0 });
@@ -67,7 +67,7 @@ where
         } else {
             None
         };
-        let runs = |x: &SVector<f64, NX>| self.rejected_runs(&first, &data, x);
+        let runs = |x: &SVector<f64, NX>| self.rejected_runs(&view, &data, x);
         let refined = refined.map(|x| (runs(&x), x));
         let (rejected0, first_rejected0) = runs(&x0);
         match refined {
@@ -79,7 +79,7 @@ where
                     _ => (x0, first_rejected0),
                 };
                 let start = at.unwrap_or(0);
-                let check = self.validator().check(&first.instance(&data, start..start + instance), &x);
+                let check = self.validator().check(&view.instance(&data, start..start + instance), &x);
                 Err(EstimateError::NotValidatedOnAll {
                     rows: n,
                     instance,

@@ -67,28 +67,24 @@ where
         } else {
             None
         };
+        // The refinement first; the first rows' solution is checked on every run only when the
+        // refinement is not accepted.
         let runs = |x: &SVector<f64, NX>| self.rejected_runs(&view, &data, x);
         let refined = refined.map(|x| (runs(&x), x));
-        let (rejected0, first_rejected0) = runs(&x0);
-        match refined {
-            Some(((0, _), x)) => Ok(RowsSolution { x, rows: n, refined: true, max_row_error: largest(&x) }),
-            _ if rejected0 == 0 => Ok(RowsSolution { x: x0, rows: n, refined: false, max_row_error: e0 }),
-            refined => {
-                let (x, at) = match refined {
-                    Some(((count, at), x)) if count < rejected0 => (x, at),
-                    _ => (x0, first_rejected0),
-                };
-                let start = at.unwrap_or(0);
-                let check = self.validator().check(&view.instance(&data, start..start + instance), &x);
-                Err(EstimateError::NotValidatedOnAll {
-                    rows: n,
-                    instance,
-                    first: start,
-                    last: start + instance - 1,
-                    check: format!("{check:?}"),
-                })
-            }
+        if let Some(((0, _), x)) = refined {
+            return Ok(RowsSolution { x, rows: n, refined: true, max_row_error: largest(&x) });
         }
+        let (rejected0, first_rejected0) = runs(&x0);
+        if rejected0 == 0 {
+            return Ok(RowsSolution { x: x0, rows: n, refined: false, max_row_error: e0 });
+        }
+        let (x, at) = match refined {
+            Some(((count, at), x)) if count < rejected0 => (x, at),
+            _ => (x0, first_rejected0),
+        };
+        let start = at.unwrap_or(0);
+        let check = self.validator().check(&view.instance(&data, start..start + instance), &x);
+        Err(EstimateError::NotValidatedOnAll { rows: n, instance, first: start, last: start + instance - 1, check: format!("{check:?}") })
     }
 
     /// How many runs of rows (module docs, step 3) the validator rejects at `x`, and the first

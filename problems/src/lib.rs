@@ -5,7 +5,6 @@
 pub mod grps;
 pub mod input;
 pub mod lm;
-pub mod robust;
 pub mod start_systems;
 pub mod upnp;
 

@@ -15,8 +15,6 @@ use simhc::ProblemLayout;
 use simhc_problems::grps::declared::GrpsSolvers;
 use simhc_problems::grps::scene::GrpsCorrespondence;
 use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};
-use simhc_problems::upnp::learned::UpnpLearned;
-use simhc_problems::upnp::ransac::UpnpEstimator;
 use simhc_problems::upnp::scene::UpnpCorrespondence;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::OnceLock;
@@ -74,9 +72,10 @@ fn upnp() -> &'static UpnpLibrarySolver {
     S.get_or_init(|| UpnpLibrarySolver::new(UpnpProblem::default()).expect("shipped weights"))
 }
 
-fn upnp_estimator() -> &'static UpnpEstimator {
-    static S: OnceLock<UpnpEstimator> = OnceLock::new();
-    S.get_or_init(|| UpnpEstimator::from_learned(UpnpLearned::shipped().expect("weights"), 0.01).expect("estimator"))
+/// The solver whose estimator's samples validate within 0.01 rad.
+fn upnp_estimator() -> &'static UpnpLibrarySolver {
+    static S: OnceLock<UpnpLibrarySolver> = OnceLock::new();
+    S.get_or_init(|| UpnpLibrarySolver::new(UpnpProblem { max_angle: 0.01, ..UpnpProblem::default() }).expect("shipped weights"))
 }
 
 fn grps() -> &'static GrpsSolvers {
@@ -104,7 +103,7 @@ proptest! {
             let check = upnp().validator().check(&corrs[..], &s.x);
             prop_assert_eq!(upnp().validator().verdict(&check), Verdict::Accept);
         }
-        let _ = upnp_estimator().estimate(&corrs, &options());
+        let _ = upnp_estimator().estimate(&corrs[..], &options());
         if n % 100 == 0 {
             println!("upnp: {n} cases");
         }
@@ -183,8 +182,8 @@ fn ten_thousand_correspondences_end() {
     // The row-wise library solver's estimator, through the declared GRPS problem: all copies of
     // one row (every sample degenerate) and rows of the wrong length.
     let rows: Vec<f64> = (0..10_000 * 12).map(|i| ((i % 12) as f64 * 0.37).sin()).collect();
-    let _ = grps().eight.estimate(&rows, &[], &options());
-    assert!(grps().eight.estimate(&rows[..13], &[], &options()).is_err(), "13 numbers are not whole rows");
+    let _ = grps().eight.estimate((&rows, &[]), &options());
+    assert!(grps().eight.estimate((&rows[..13], &[]), &options()).is_err(), "13 numbers are not whole rows");
     let _ = grps().eight.solve_rows(&rows, &[]);
     assert!(grps().eight.solve_rows(&rows[..13], &[]).is_err(), "13 numbers are not whole rows");
     tried += 4;

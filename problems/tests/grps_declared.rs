@@ -259,7 +259,7 @@ fn the_estimator_finds_the_inliers_of_grps8() {
             rows[i * 12..(i + 1) * 12].copy_from_slice(&other[i * 12..(i + 1) * 12]);
         }
         let options = simhc::ransac::RansacOptions { seed: trial, ..simhc::ransac::RansacOptions::poselib(0.004) };
-        let (x, info) = solver.estimate(&rows, &[], &options).expect("an estimate");
+        let (x, info) = solver.estimate((&rows, &[]), &options).expect("an estimate");
         let kept_true = (0..60).filter(|&i| !wrong[i] && info.inlier_mask[i]).count();
         let kept_wrong = (0..60).filter(|&i| wrong[i] && info.inlier_mask[i]).count();
         // At most one true match lost: an estimate a few % off in translation and scale (see

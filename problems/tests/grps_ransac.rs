@@ -32,7 +32,7 @@ fn ransac_recovers_the_pose_with_30_percent_outliers() {
         }
         let options = RansacOptions { seed, local_optimization: true, ..RansacOptions::default() };
         let rows: Vec<f64> = row_numbers(&scene.correspondences).collect();
-        let (x, r) = solvers.seven.estimate(&rows, &[], &options).expect("a model");
+        let (x, r) = solvers.seven.estimate((&rows, &[]), &options).expect("a model");
         let model = GrpsPose::from_unknowns(&x).expect("a pose");
         let er = rotation_error_deg(&model.rotation, &scene.rotation);
         let et = translation_error_pct(&model.translation, &scene.translation);
@@ -57,11 +57,11 @@ fn the_estimator_names_a_bad_correspondence_and_needs_a_sample() {
     let mut scene = GrpsSceneConfig::default().sample_seeded(3).expect("valid config");
     let options = RansacOptions::poselib(0.01);
     let rows: Vec<f64> = row_numbers(&scene.correspondences[..7]).collect();
-    let err = solvers.eight.estimate(&rows, &[], &options).unwrap_err();
+    let err = solvers.eight.estimate((&rows, &[]), &options).unwrap_err();
     assert_eq!(err, EstimateError::TooFew { rows: 7, needed: 8 });
     scene.correspondences[5].fp.z = f64::NAN;
     let rows: Vec<f64> = row_numbers(&scene.correspondences).collect();
-    match solvers.seven.estimate(&rows, &[], &options).unwrap_err() {
+    match solvers.seven.estimate((&rows, &[]), &options).unwrap_err() {
         EstimateError::NonFinite(at) => {
             assert_eq!(at.row, Some(5));
             assert!(at.to_string().contains("fp"), "{at}");

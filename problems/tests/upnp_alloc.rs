@@ -56,10 +56,8 @@ fn a_solve_validated_by_the_linear_start_allocates_nothing() {
 #[test]
 fn a_ransac_sample_allocates_nothing() {
     use rand::{Rng, SeedableRng};
-    use simhc::ransac::Estimator;
-    use simhc_problems::upnp::learned::UpnpLearned;
-    use simhc_problems::upnp::ransac::UpnpEstimator;
-    let estimator = UpnpEstimator::from_learned(UpnpLearned::shipped().expect("weights"), 0.01).expect("UPnP network");
+    use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};
+    let solver = UpnpLibrarySolver::new(UpnpProblem { max_angle: 0.01, ..UpnpProblem::default() }).expect("UPnP network");
     let config = UpnpSceneConfig { points: 100, noise_px: 1.0, ..UpnpSceneConfig::default() };
     let mut scene = config.sample_seeded(7).expect("valid config").correspondences;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
@@ -71,7 +69,7 @@ fn a_ransac_sample_allocates_nothing() {
     for _ in 0..200 {
         let sample: Vec<usize> = rand::seq::index::sample(&mut rng, scene.len(), 4).into_vec();
         out.clear();
-        let ((), n) = counted(|| estimator.solve(&scene, &sample, &mut out));
+        let ((), n) = counted(|| solver.solve_sample(&scene, &sample, &mut out));
         kept += out.len();
         allocations += n;
     }

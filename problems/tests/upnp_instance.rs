@@ -117,17 +117,18 @@ fn bad_input_names_the_correspondence_and_field() {
     assert!(row.is_none() && why.contains("parallel"), "{why}");
 }
 
-/// The estimator's samples need UPnP's network: another shape is a typed error, not a panic.
+/// The solver (and so its estimator) needs UPnP's network: another shape is a typed error, not
+/// a panic.
 #[test]
-fn an_estimator_with_a_network_of_another_shape_is_an_error() {
+fn a_network_of_another_shape_is_an_error() {
     use simhc::regressor::{DenseLayer, FoldedNetwork};
-    use simhc_problems::upnp::ransac::UpnpEstimator;
     let point = DenseLayer::new(12, 1, vec![0.0; 12], vec![0.0]).expect("layer");
     let head = DenseLayer::new(1, 4, vec![0.0; 4], vec![1.0, 0.0, 0.0, 0.0]).expect("layer");
     let network = FoldedNetwork::new(12, vec![point], vec![head], true).expect("network");
-    let e = UpnpEstimator::new(network, 0.01).expect_err("rows of 12, not 9");
+    let e = UpnpLearned::new(network).err().expect("rows of 12, not 9");
     assert!(e.to_string().contains("input width"), "{e}");
-    assert!(UpnpEstimator::from_learned(UpnpLearned::shipped().expect("shipped"), 0.01).is_ok());
+    let problem = std::sync::Arc::new(UpnpProblem { max_angle: 0.01, ..UpnpProblem::default() });
+    assert!(UpnpLibrarySolver::with_learned(problem, UpnpLearned::shipped().expect("shipped"), 0.0).is_ok());
 }
 
 /// Without the linear start and the fallback, the learned start alone: still at least 95 % on

@@ -11,14 +11,12 @@ use simhc_problems::grps::geometry::validate;
 use simhc_problems::grps::pose::GrpsPose;
 use simhc_problems::grps::row_numbers;
 use simhc_problems::grps::scene::GrpsCorrespondence;
-use simhc_problems::robust::RobustError;
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
-use simhc_problems::upnp::ransac::UpnpEstimator;
 use simhc_problems::upnp::scene::UpnpCorrespondence;
 use simhc_pymodule::arrays::{same_count, vectors};
 use simhc_pymodule::{info_dict, ransac_options, solve_failure, Error, Failure};
 use std::fmt::Display;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
 /// The focal length (pixels) the estimators' pixel defaults refer to.
 const FOCAL_PX: f64 = 800.0;
@@ -58,13 +56,6 @@ fn grps_estimators() -> Result<&'static GrpsSolvers, Failure> {
 }
 
 /// A built-in estimator's error as an exception: bad input, or no model.
-fn robust_failure<E: Display>(e: RobustError<E>) -> Failure {
-    match e {
-        RobustError::Input(_) => Failure::Input(e.to_string()),
-        RobustError::NoModel { .. } => Failure::NoSolution(e.to_string()),
-    }
-}
-
 /// The correspondences of `upnp`'s arrays (`origins=None`: a central camera at the origin).
 fn upnp_correspondences(
     points: &Bound<'_, PyAny>,
@@ -212,11 +203,13 @@ pub fn estimate_upnp<'py>(
         let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
         let max_angle = (8.0 * noise_angle(noise)?).max(1e-6);
         let corrs = upnp_correspondences(points, bearings, origins)?;
-        // The library solver's learned start, shared: one copy of the weights in the process.
+        // The library solver's learned start, shared: one copy of the weights in the process; a
+        // sample's pose may miss its own correspondences by `max_angle`.
         let learned = upnp_library()?.learned_start().clone();
-        let estimator =
-            UpnpEstimator::from_learned(learned, max_angle).map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
-        let (pose, info) = py.detach(|| estimator.estimate(&corrs, &options)).map_err(robust_failure)?;
+        let problem = Arc::new(UpnpProblem { max_angle, ..UpnpProblem::default() });
+        let solver = UpnpLibrarySolver::with_learned(problem, learned, 0.0)
+            .map_err(|e| Failure::NoSolution(format!("the shipped UPnP weights: {e}")))?;
+        let (pose, info) = py.detach(|| solver.estimate(&corrs, &options)).map_err(estimate_failure)?;
         Ok((Pose::new(py, &pose.rotation, &pose.translation, None)?, info_dict(py, &info)?))
     })()
     .map_err(|e| raise(py, e))
@@ -258,7 +251,7 @@ pub fn estimate_grps<'py>(
             validate(&corrs).map_err(|e| Failure::Input(e.to_string()))?;
         }
         let solvers = grps_estimators()?;
-        let (x, info) = py.detach(|| solvers.seven.estimate(&rows, &[], &options)).map_err(estimate_failure)?;
+        let (x, info) = py.detach(|| solvers.seven.estimate((&rows, &[]), &options)).map_err(estimate_failure)?;
         let pose = grps_pose(&x)?;
         Ok((Pose::new(py, &pose.rotation, &pose.translation, Some(pose.scale))?, info_dict(py, &info)?))
     })()

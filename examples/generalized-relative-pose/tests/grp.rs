@@ -366,7 +366,7 @@ fn the_robust_estimator_finds_the_pose_among_wrong_matches() {
     assert!(problem.row_error(&truth, &rows[..12], &[]) > 1e-3, "a wrong match's is not");
     let solver = simhc::solver::Solver::new(problem).expect("shipped weights");
     let options = simhc::ransac::RansacOptions { seed, max_iterations: 200, ..simhc::ransac::RansacOptions::poselib(1e-6) };
-    let (x, info) = solver.estimate(&rows, &[], &options).expect("a pose");
+    let (x, info) = solver.estimate((&rows, &[]), &options).expect("a pose");
     let [e_r, e_t] = errors(&x, &truth);
     println!("E_R {e_r:.2e} deg, E_t {e_t:.2e} %, {} inliers, {} iterations", info.inliers.len(), info.iterations);
     assert!(e_r < 1e-6 && e_t < 1e-6, "{e_r} deg, {e_t} %");
@@ -401,7 +401,7 @@ fn the_robust_estimate_is_within_the_noise() {
     };
     let solver = simhc::solver::Solver::with_weights(GenRelPose::new(), generalized_relative_pose::WEIGHTS, 1.0).expect("shipped weights");
     let options = simhc::ransac::RansacOptions { seed, max_iterations: 300, ..simhc::ransac::RansacOptions::poselib(threshold) };
-    let (x, info) = solver.estimate(&rows, &[], &options).expect("a pose");
+    let (x, info) = solver.estimate((&rows, &[]), &options).expect("a pose");
     let [e_r, e_t] = errors(&x, &truth);
     let (at_estimate, at_truth) = (cost(&x), cost(&truth));
     println!("E_R {e_r:.3} deg, E_t {e_t:.2} %, cost {at_estimate:.3} (truth {at_truth:.3}), {} inliers", info.inliers.len());
@@ -424,7 +424,7 @@ fn the_estimator_on_one_sample_solves_it_once_as_solve_does() {
     for _ in 0..n {
         let (p, truth) = scene(&mut rng, 0.0);
         let solved = solver.solve(&p);
-        let estimated = solver.estimate(p.as_slice(), &[], &options);
+        let estimated = solver.estimate((p.as_slice(), &[]), &options);
         match (&solved, &estimated) {
             (Ok(s), Ok((x, info))) => {
                 assert_eq!(s.x, *x, "the estimate is the solve's solution");
@@ -463,7 +463,7 @@ fn a_repeated_correspondence_is_degenerate_input_naming_its_row() {
     }
     // The estimator on those 7 rows is the one solve of them: the same error, as a string.
     let options = simhc::ransac::RansacOptions::poselib(1e-6);
-    let e = solver.estimate(p.as_slice(), &[], &options).expect_err("degenerate");
+    let e = solver.estimate((p.as_slice(), &[]), &options).expect_err("degenerate");
     assert!(e.to_string().contains("row 5"), "{e}");
 }
 

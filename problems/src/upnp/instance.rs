@@ -76,7 +76,7 @@ pub fn upnp_pose(x: &SVector<f64, 4>, corrs: &[UpnpCorrespondence]) -> Option<Up
 
 /// [`upnp_pose`] of correspondences already checked (inside a solve, after
 /// [`InstanceProblem::check_data`]): the validator's and the simulator's, on every attempt.
-fn checked_pose(x: &SVector<f64, 4>, corrs: &[UpnpCorrespondence]) -> Option<UpnpPose> {
+pub(super) fn checked_pose(x: &SVector<f64, 4>, corrs: &[UpnpCorrespondence]) -> Option<UpnpPose> {
     let n = x.norm();
     if !(n > 0.0 && n.is_finite()) {
         return None;

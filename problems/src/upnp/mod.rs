@@ -1,11 +1,11 @@
 //! Generalized absolute pose via UPnP: declaration, scene sampler, cost matrix, simulator.
+pub mod estimate;
 pub mod features;
 pub mod geometry;
 pub mod instance;
 pub mod learned;
 pub mod linear;
 pub mod pose;
-pub mod ransac;
 pub mod refine;
 pub mod scene;
 pub mod simulator;

@@ -64,7 +64,7 @@ where
         Solver::solve_batch(self, &data).into_iter().map(|r| r.map(|s| s.x.as_slice().to_vec()).map_err(solve_failure)).collect()
     }
     fn estimate(&self, rows: &[f64], globals: &[f64], options: &RansacOptions) -> Result<(Vec<f64>, EstimateInfo), Failure> {
-        Solver::estimate(self, rows, globals, options).map(|(x, info)| (x.as_slice().to_vec(), info)).map_err(|e| match e {
+        Solver::estimate(self, (rows, globals), options).map(|(x, info)| (x.as_slice().to_vec(), info)).map_err(|e| match e {
             EstimateError::NoModel { .. } | EstimateError::NotSolved { .. } => Failure::NoSolution(e.to_string()),
             _ => Failure::Input(e.to_string()),
         })

@@ -763,9 +763,9 @@ fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<Ransac
             let data: Vec<f64> = row_numbers(&scene.correspondences).collect();
             let t = Instant::now();
             let result = if args.ransac_sample == 8 {
-                solvers.eight.estimate(&data, &[], &options)
+                solvers.eight.estimate((&data, &[]), &options)
             } else {
-                solvers.seven.estimate(&data, &[], &options)
+                solvers.seven.estimate((&data, &[]), &options)
             };
             times.push(t.elapsed().as_secs_f64() * 1e3);
             match result.ok().and_then(|(x, info)| Some((GrpsPose::from_unknowns(&x)?, info))) {

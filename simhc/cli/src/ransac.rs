@@ -600,7 +600,7 @@ where
         let rows: Vec<f64> = trial.rows.concat();
         let truth = SVector::<f64, NX>::from_column_slice(&trial.truth);
         let t0 = Instant::now();
-        let result = solver.estimate(&rows, &trial.globals, options);
+        let result = solver.estimate((&rows, &trial.globals), options);
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let estimate = result.ok().map(|(x, info)| (x.as_slice().to_vec(), problem.correct(&problem.errors(&x, &truth)), info.inlier_mask));
         Ok(Estimated { estimate, ms })

@@ -314,13 +314,14 @@ pub fn solve_file(text: &str) -> Result<serde_json::Value, String> {
     }))
 }
 
-/// `simhc ransac upnp`: [`simhc_problems::upnp::ransac::UpnpEstimator`] on scenes of the UPnP
+/// `simhc ransac upnp`: the UPnP library solver's robust estimate
+/// ([`simhc::solver::InstanceSolver::estimate`]) on scenes of the UPnP
 /// sampler (`--rows` correspondences, `--noise` px) in which a wrong match takes the world
 /// point of another scene; success is the paper's (E_R < 2 deg) and E_t < 5 %. A row of the
 /// trials is `[p, f, v]`, the truth (and an estimate) the rotation (row-major) and translation.
 pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<(crate::ransac::TrialsFile, String, crate::ransac::RansacReport), String> {
     use crate::ransac::{Estimated, Field, Sampled, TrialSpec};
-    use simhc_problems::upnp::ransac::UpnpEstimator;
+    use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};
     let spec = TrialSpec {
         problem: "upnp",
         row_fields: vec![Field::new("p", 3), Field::new("f", 3), Field::new("v", 3)],
@@ -351,14 +352,16 @@ pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<(crate::ransac::TrialsFil
         None => UpnpLearned::shipped().map_err(|e| e.to_string())?,
     };
     let focal_px = UpnpSceneConfig::default().focal_px;
-    let estimator = UpnpEstimator::from_learned(learned, (8.0 * file.noise / focal_px).max(1e-6)).map_err(|e| e.to_string())?;
+    // A sample's pose may miss its own correspondences by 8 times the noise.
+    let problem = UpnpProblem { max_angle: (8.0 * file.noise / focal_px).max(1e-6), ..UpnpProblem::default() };
+    let solver = UpnpLibrarySolver::with_learned(std::sync::Arc::new(problem), learned, 0.0).map_err(|e| e.to_string())?;
     let report = crate::ransac::evaluate(&file, |trial, options| {
         let v3 = |s: &[f64]| nalgebra::Vector3::new(s[0], s[1], s[2]);
         let corrs: Vec<UpnpCorrespondence> =
             trial.rows.iter().map(|r| UpnpCorrespondence { p: v3(&r[0..3]), f: v3(&r[3..6]), v: v3(&r[6..9]) }).collect();
         let (rotation, translation) = (Matrix3::from_row_slice(&trial.truth[..9]), v3(&trial.truth[9..]));
         let t0 = Instant::now();
-        let result = estimator.estimate(&corrs, options);
+        let result = solver.estimate(&corrs, options);
         let ms = t0.elapsed().as_secs_f64() * 1e3;
         let estimate = result.ok().map(|(pose, info)| {
             let correct =

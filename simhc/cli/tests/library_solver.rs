@@ -216,7 +216,7 @@ fn the_robust_estimator_finds_the_inliers_among_40_percent_outliers() {
     let solver = noisy_solver(sigma);
     let (rows, truth_mask, truth) = outlier_data(seed, sigma);
     let options = RansacOptions { seed, ..RansacOptions::poselib(0.01) };
-    let (x, info) = solver.estimate(&rows, &[], &options).expect("a model");
+    let (x, info) = solver.estimate((&rows, &[]), &options).expect("a model");
     println!("{x:?} against {truth:?}: {info:?}");
     let found = info.inlier_mask.iter().zip(&truth_mask).filter(|(m, t)| **m && **t).count();
     let true_inliers = truth_mask.iter().filter(|t| **t).count();
@@ -233,11 +233,11 @@ fn the_robust_estimator_names_bad_input() {
     let solver = solver();
     let (mut rows, _, _) = outlier_data(13, 0.0);
     let options = RansacOptions { max_iterations: 50, ..RansacOptions::poselib(0.01) };
-    assert_eq!(solver.estimate(&rows[..7], &[], &options).unwrap_err(), EstimateError::Length { len: 7, per_row: 2 });
-    assert_eq!(solver.estimate(&rows[..6], &[], &options).unwrap_err(), EstimateError::TooFew { rows: 3, needed: 4 });
-    assert_eq!(solver.estimate(&rows, &[1.0], &options).unwrap_err(), EstimateError::Globals { got: 1, expected: 0 });
+    assert_eq!(solver.estimate((&rows[..7], &[]), &options).unwrap_err(), EstimateError::Length { len: 7, per_row: 2 });
+    assert_eq!(solver.estimate((&rows[..6], &[]), &options).unwrap_err(), EstimateError::TooFew { rows: 3, needed: 4 });
+    assert_eq!(solver.estimate((&rows, &[1.0]), &options).unwrap_err(), EstimateError::Globals { got: 1, expected: 0 });
     rows[2 * 7 + 1] = f64::NAN;
-    let err = solver.estimate(&rows, &[], &options).unwrap_err();
+    let err = solver.estimate((&rows, &[]), &options).unwrap_err();
     assert!(err.to_string().contains("row 7") && err.to_string().contains("`y`"), "{err}");
 }
 

@@ -17,11 +17,11 @@
 //! solve of the first rows has the solver's every start and its fallback, where a RANSAC sample
 //! gets one attempt.
 
-use super::estimate::{checked_rows, EstimateError, Samples};
+use super::estimate::EstimateError;
+use super::estimate_rows::{checked_rows, data_instance, refine_on_rows, row, row_error, RowsInput};
 use super::library::Solver;
 use super::problem::DeclaredProblem;
 use crate::pipeline::{Validator, Verdict};
-use crate::ransac::Estimator;
 use crate::ProblemLayout;
 use nalgebra::SVector;
 
@@ -49,27 +49,30 @@ where
     /// all. Bad input is an error naming the row and field.
     pub fn solve_rows(&self, rows: &[f64], globals: &[f64]) -> Result<RowsSolution<NX>, EstimateError> {
         let layout = S::Data::LAYOUT;
-        let data = checked_rows(&layout, rows, globals)?;
-        let (n, instance) = (data.len(), layout.rows);
-        let view = Samples::<S, NX, NF, NP, NC, ND>::new(self, globals, 1.0);
+        let n = checked_rows(&layout, rows, globals)?;
+        let input: RowsInput<'_> = (rows, globals);
+        let instance = layout.rows;
+        let problem = self.problem();
         let x0 = self
-            .solve(&view.instance(&data, 0..instance))
+            .solve(&data_instance::<ND>(&layout, input, 0..instance))
             .map_err(|e| EstimateError::FirstRowsNotSolved { rows: instance, reason: e.to_string() })?
             .x;
-        let largest = |x: &SVector<f64, NX>| data.iter().map(|row| view.row_error(x, row)).fold(0.0, f64::max);
+        let largest = |x: &SVector<f64, NX>| {
+            (0..n).map(|i| row_error::<S, NX, NF, NP, NC, ND>(problem, x, row(&layout, input, i), globals)).fold(0.0, f64::max)
+        };
         let e0 = largest(&x0);
         if n == instance {
             return Ok(RowsSolution { x: x0, rows: n, refined: false, max_row_error: e0 });
         }
         let refined = if e0.is_finite() && e0 > 0.0 {
             let all: Vec<usize> = (0..n).collect();
-            Samples::<S, NX, NF, NP, NC, ND>::new(self, globals, e0).refine(&x0, &data, &all)
+            refine_on_rows::<S, NX, NF, NP, NC, ND>(problem, input, &x0, &all, e0)
         } else {
             None
         };
         // The refinement first; the first rows' solution is checked on every run only when the
         // refinement is not accepted.
-        let runs = |x: &SVector<f64, NX>| self.rejected_runs(&view, &data, x);
+        let runs = |x: &SVector<f64, NX>| self.rejected_runs(input, n, x);
         let refined = refined.map(|x| (runs(&x), x));
         if let Some(((0, _), x)) = refined {
             return Ok(RowsSolution { x, rows: n, refined: true, max_row_error: largest(&x) });
@@ -83,17 +86,18 @@ where
             _ => (x0, first_rejected0),
         };
         let start = at.unwrap_or(0);
-        let check = self.validator().check(&view.instance(&data, start..start + instance), &x);
+        let check = self.validator().check(&data_instance::<ND>(&layout, input, start..start + instance), &x);
         Err(EstimateError::NotValidatedOnAll { rows: n, instance, first: start, last: start + instance - 1, check: format!("{check:?}") })
     }
 
-    /// How many runs of rows (module docs, step 3) the validator rejects at `x`, and the first
-    /// row of the first one rejected.
-    fn rejected_runs(&self, view: &Samples<'_, S, NX, NF, NP, NC, ND>, data: &[&[f64]], x: &SVector<f64, NX>) -> (usize, Option<usize>) {
-        let (n, instance) = (data.len(), S::Data::LAYOUT.rows);
+    /// How many runs of rows (module docs, step 3) of the `n` rows of `input` the validator
+    /// rejects at `x`, and the first row of the first one rejected.
+    fn rejected_runs(&self, input: RowsInput<'_>, n: usize, x: &SVector<f64, NX>) -> (usize, Option<usize>) {
+        let layout = S::Data::LAYOUT;
+        let instance = layout.rows;
         let mut rejected = (0, None);
         for start in (0..n).step_by(instance.max(1)).map(|s| s.min(n - instance)) {
-            let p = view.instance(data, start..start + instance);
+            let p = data_instance::<ND>(&layout, input, start..start + instance);
             if self.validator().verdict(&self.validator().check(&p, x)) == Verdict::Reject {
                 rejected = (rejected.0 + 1, rejected.1.or(Some(start)));
             }

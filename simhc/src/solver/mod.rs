@@ -3,8 +3,8 @@
 //! A problem implements [`DeclaredProblem`] (its compiled instances, a validator, a scene
 //! sampler, optional hooks); [`Solver`] assembles the solve from it once (weights, start
 //! system) and then solves any number of times from any thread, without heap allocation per
-//! validated solve; [`Solver::estimate`] is the robust estimator over correspondences with
-//! outliers. The `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same
+//! validated solve; [`InstanceSolver::estimate`] is the robust estimator over correspondences
+//! with outliers. The `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same
 //! trait, and the built-in problems' toolkits ([`SquareSubsystem`] for the all-roots fallback,
 //! [`crate::start_system`] for its start system) live here too, so a problem library depends
 //! on the runtime only.
@@ -23,10 +23,13 @@
 //!   ([`InstanceProblem`]), and the blanket impl for every [`DeclaredProblem`];
 //! - [`restarts`]: restarts around the learned start, before the fallback;
 //! - [`library`]: the solver, [`Solver`];
-//! - [`estimate`]: the robust estimator, [`Solver::estimate`];
+//! - [`estimate`]: the robust estimator for every problem and data type,
+//!   [`InstanceSolver::estimate`], and what it needs of a problem ([`Correspondences`]);
+//! - [`estimate_rows`]: a row-wise problem's rows as its correspondences;
 //! - [`many_rows`]: a solve of more rows than the data instance has, [`Solver::solve_rows`].
 
 pub mod estimate;
+pub mod estimate_rows;
 pub mod hypotheses;
 pub mod instance;
 pub mod library;
@@ -39,7 +42,8 @@ pub mod rows;
 pub mod schedule;
 pub mod subsystem;
 
-pub use estimate::{EstimateError, EstimateInfo};
+pub use estimate::{Correspondences, EstimateError, EstimateInfo};
+pub use estimate_rows::RowsInput;
 pub use hypotheses::{LearnedHypotheses, Ranked};
 pub use instance::{InstanceProblem, RowwiseLearned};
 pub use library::{

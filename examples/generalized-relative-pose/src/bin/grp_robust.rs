@@ -33,7 +33,7 @@ fn main() -> Result<(), String> {
             .collect();
         let options = RansacOptions { seed: seed.wrapping_add(i as u64), min_iterations, ..RansacOptions::poselib(threshold) };
         let t = Instant::now();
-        let result = solver.estimate(&rows, &[], &options);
+        let result = solver.estimate((&rows, &[]), &options);
         let micros = t.elapsed().as_secs_f64() * 1e6;
         let line = match result {
             Ok((x, info)) => {

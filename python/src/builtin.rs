@@ -15,7 +15,6 @@ use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
 use simhc_problems::upnp::scene::UpnpCorrespondence;
 use simhc_pymodule::arrays::{same_count, vectors};
 use simhc_pymodule::{info_dict, ransac_options, solve_failure, Error, Failure};
-use std::fmt::Display;
 use std::sync::{Arc, OnceLock};
 
 /// The focal length (pixels) the estimators' pixel defaults refer to.

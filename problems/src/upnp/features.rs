@@ -1,5 +1,5 @@
 //! The UPnP regressor's input rows and output decoding, shared by training (`simhc-regressor`)
-//! and inference ([`super::solver`]).
+//! and inference ([`super::learned`]).
 //!
 //! # Canonical frames
 //!

@@ -12,7 +12,8 @@ pub fn simhc_problem(attr: TokenStream, item: TokenStream) -> TokenStream {
 }
 
 /// On `impl simhc::solver::DeclaredProblem for YourProblem { type Tracked = ..; type Data = ..; .. }`:
-/// fills in the trait's sizes from the two instances, so the impl writes no number.
+/// fills in the trait's sizes from the two instances, so the impl writes no number; on
+/// `impl simhc::solver::Scenes for YourProblem { .. }`, the same sizes.
 #[proc_macro_attribute]
 pub fn declared_problem(attr: TokenStream, item: TokenStream) -> TokenStream {
     solvergen::registration::expand(attr.into(), item.into()).into()

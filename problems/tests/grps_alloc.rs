@@ -12,7 +12,7 @@ use counting_alloc::counted;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::Method;
-use simhc::solver::{sample_schedule, DeclaredProblem, Solver, SolverAttempt, SolverOrigin, StartId};
+use simhc::solver::{sample_schedule, Scenes, Solver, SolverAttempt, SolverOrigin, StartId};
 use simhc_problems::grps::declared::Grps8Problem;
 use simhc_problems::grps::learned::GrpsNetwork;
 use simhc_problems::grps::scene::GrpsSceneConfig;

@@ -10,7 +10,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::Validator;
 use simhc::pipeline::{Method, OutputDecoding};
-use simhc::solver::{DeclaredProblem, Solver, SolverAttempt, SolverOrigin};
+use simhc::solver::{DeclaredProblem, Scenes, Solver, SolverAttempt, SolverOrigin};
 use simhc::solver::{DegenerateInput, FirstRowsError, SolveError};
 use simhc_problems::grps::declared::{params_of, Grps8Problem, GrpsOutputs, GrpsSolvers, GrpsSolversError};
 use simhc_problems::grps::eight_rows;

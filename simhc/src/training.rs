@@ -1,5 +1,5 @@
 //! Settings of a learned start's training, as plain data: a problem returns them from
-//! [`crate::solver::DeclaredProblem::training`] whatever features are enabled, and the trainer
+//! [`crate::solver::Scenes::training`] whatever features are enabled, and the trainer
 //! (`simhc-regressor`, with burn) reads them.
 
 /// Settings of the training loop (`simhc_regressor::train`).

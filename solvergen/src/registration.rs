@@ -1,10 +1,14 @@
-//! `#[simhc::declared_problem]` on an `impl DeclaredProblem for Foo` block: the trait's five
-//! sizes come from the impl's own `type Tracked` and `type Data`, so user code writes no number.
+//! `#[simhc::declared_problem]` on an `impl DeclaredProblem for Foo` block, and on the same
+//! type's `impl Scenes for Foo` block: the traits' five sizes come from the first impl's own
+//! `type Tracked` and `type Data`, so user code writes no number.
 //!
 //! `impl DeclaredProblem for P { type Tracked = T; type Data = D; .. }` becomes
 //! `impl DeclaredProblem<{ T::NX }, { T::NF }, { T::NP }, { T::NC }, { D::NP }> for P { .. }`,
 //! each size spanned by the user's `T` or `D`, so a type that is no compiled instance is an error
-//! on that line. Every mistake of the block is reported at once.
+//! on that line, and `impl DeclaredSizes for P { const SIZES: [usize; 5] = [T::NX, .., D::NP]; }`.
+//! `impl Scenes for P { .. }` becomes `impl Scenes<{ <P as DeclaredSizes>::SIZES[0] }, ..> for P`:
+//! a trait impl's const arguments cannot be read back, so `DeclaredSizes` carries them from one
+//! impl to the other. Every mistake of a block is reported at once.
 
 use crate::ctxt::Ctxt;
 use proc_macro2::TokenStream;
@@ -19,6 +23,9 @@ pub fn expand(attr: TokenStream, item: TokenStream) -> TokenStream {
     }
 }
 
+/// The names of the sizes, in the traits' order (that of `DeclaredSizes::SIZES`).
+const SIZE_NAMES: [&str; 5] = ["NX", "NF", "NP", "NC", "ND"];
+
 /// The impl block with the trait's sizes filled in, or every error found.
 pub fn declared_problem(attr: TokenStream, item: TokenStream) -> Result<TokenStream, syn::Error> {
     let mut cx = Ctxt::new();
@@ -26,6 +33,50 @@ pub fn declared_problem(attr: TokenStream, item: TokenStream) -> Result<TokenStr
         cx.error_spanned_by(&attr, "`#[declared_problem]` takes no arguments: the sizes come from `type Tracked` and `type Data`");
     }
     let mut block: syn::ItemImpl = syn::parse2(item)?;
+    let Some((_, trait_path, _)) = block.trait_.as_ref() else {
+        return Err(syn::Error::new(
+            block.self_ty.span(),
+            "`#[declared_problem]` goes on `impl simhc::solver::DeclaredProblem for YourProblem { .. }` or `impl simhc::solver::Scenes for YourProblem { .. }`",
+        ));
+    };
+    let last = trait_path.segments.last().expect("a parsed path has a segment");
+    // A `Scenes` impl reads the sizes that the type's `DeclaredProblem` impl writes.
+    let scenes = last.ident == "Scenes";
+    let sizes = if scenes { None } else { Some(instance_sizes(&mut cx, &block)) };
+    if !last.arguments.is_none() {
+        cx.error_spanned_by(&last.arguments, "remove the sizes: `#[declared_problem]` fills them in from `type Tracked` and `type Data`");
+    }
+    cx.check()?;
+    let self_ty = &block.self_ty;
+    let (args, sizes_impl) = match sizes {
+        // The `DeclaredProblem` impl names the instances' sizes themselves, not those of its
+        // `DeclaredSizes` impl: they do not depend on the impl's generics, so a generic problem
+        // type stays sized (a const argument may not use a generic parameter).
+        Some(sizes) => {
+            let (impl_generics, _, where_clause) = block.generics.split_for_impl();
+            let sizes_impl = quote! {
+                impl #impl_generics ::simhc::solver::DeclaredSizes for #self_ty #where_clause {
+                    const SIZES: [usize; 5] = [#(#sizes),*];
+                }
+            };
+            (sizes.map(|size| quote!({ #size })).to_vec(), Some(sizes_impl))
+        }
+        None => {
+            let read =
+                (0..SIZE_NAMES.len()).map(|k| quote_spanned!(self_ty.span()=> { <#self_ty as ::simhc::solver::DeclaredSizes>::SIZES[#k] }));
+            (read.collect(), None)
+        }
+    };
+    let (_, trait_path, _) = block.trait_.as_mut().expect("checked");
+    let last = trait_path.segments.last_mut().expect("a parsed path has a segment");
+    last.arguments = syn::PathArguments::AngleBracketed(syn::parse2(quote!(<#(#args),*>))?);
+    Ok(quote!(#sizes_impl #block))
+}
+
+/// The five sizes of a `DeclaredProblem` block, `[T::NX, T::NF, T::NP, T::NC, D::NP]` of its
+/// `type Tracked = T` and `type Data = D`, each spanned by the user's type (an error on the
+/// trait for each type missing, and then no sizes).
+fn instance_sizes(cx: &mut Ctxt, block: &syn::ItemImpl) -> [TokenStream; 5] {
     let associated = |name: &str| {
         block.items.iter().find_map(|item| match item {
             syn::ImplItem::Type(t) if t.ident == name => Some(t.ty.clone()),
@@ -33,33 +84,22 @@ pub fn declared_problem(attr: TokenStream, item: TokenStream) -> Result<TokenStr
         })
     };
     let (tracked, data) = (associated("Tracked"), associated("Data"));
-    let Some((_, trait_path, _)) = block.trait_.as_mut() else {
-        return Err(syn::Error::new(
-            block.self_ty.span(),
-            "`#[declared_problem]` goes on `impl simhc::solver::DeclaredProblem for YourProblem { .. }`",
-        ));
-    };
-    let anchor = trait_path.clone();
+    let anchor = &block.trait_.as_ref().expect("a trait impl").1;
     for (found, name) in [(&tracked, "Tracked"), (&data, "Data")] {
         if found.is_none() {
             cx.error_spanned_by(
-                &anchor,
+                anchor,
                 format!("missing `type {name} = ..;`: `#[declared_problem]` takes the sizes from `type Tracked` and `type Data`"),
             );
         }
     }
-    let last = trait_path.segments.last_mut().expect("a parsed path has a segment");
-    if !last.arguments.is_none() {
-        cx.error_spanned_by(&last.arguments, "remove the sizes: `#[declared_problem]` fills them in from `type Tracked` and `type Data`");
-    }
-    cx.check()?;
-    let (tracked, data) = (tracked.expect("checked"), data.expect("checked"));
-    let size = |ty: &syn::Type, name: &str| {
-        let ident = syn::Ident::new(name, ty.span());
-        quote_spanned!(ty.span()=> { <#ty>::#ident })
+    let (Some(tracked), Some(data)) = (tracked, data) else {
+        return Default::default();
     };
-    let (nx, nf, np, nc) = (size(&tracked, "NX"), size(&tracked, "NF"), size(&tracked, "NP"), size(&tracked, "NC"));
-    let nd = size(&data, "NP");
-    last.arguments = syn::PathArguments::AngleBracketed(syn::parse2(quote!(<#nx, #nf, #np, #nc, #nd>))?);
-    Ok(quote!(#block))
+    // The data instance's parameter count is its `NP`: the trait's `ND`.
+    SIZE_NAMES.map(|name| {
+        let (ty, from) = if name == "ND" { (&data, "NP") } else { (&tracked, name) };
+        let from = syn::Ident::new(from, ty.span());
+        quote_spanned!(ty.span()=> <#ty>::#from)
+    })
 }

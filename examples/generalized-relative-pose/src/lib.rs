@@ -13,8 +13,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::frames::bearing_frame;
 use simhc::pipeline::{Validator, Verdict};
-use simhc::solver::DeclaredProblem;
-use simhc::training::LearnedStartConfig;
+use simhc::solver::{DeclaredProblem, Scenes};
 
 /// 1. The declaration. `Grp7` is solved (6 rows determine the pose, the 7th validates);
 ///    `Grp6` is the square system of the start system and the all-roots fallback.
@@ -52,7 +51,13 @@ pub const FOCAL_PX: f64 = 800.0;
 
 /// The shipped start system (`grp monodromy grp --output data/grp6_start.json`).
 pub static START_SYSTEM: &str = include_str!("../data/grp6_start.json");
-/// The shipped weights (`grp train grp --out weights/grp.folded`).
+/// The shipped weights: `grp train grp --seed 1 --out weights/grp.folded`, the trainer's
+/// defaults (8 start hypotheses, a context stage after the first layer; 123 s on the 2-core
+/// machine beside another training run, 2026-12-04), so the problem keeps the default
+/// `Scenes::training`. Eight ranked hypotheses instead of one: the shipped mean fell from 1011
+/// to 85 us at the same median (`grp bench grp --trials 1000 --seed 1`). The context stage
+/// (every row also reads the pooled features of all rows) raised one path from 54.9 to 61.8 %
+/// and Gauss-Newton on all rows from 77.4 to 82.6 % on those trials (BENCHMARKS.md, 2026-12-04).
 pub static WEIGHTS: &[u8] = include_bytes!("../weights/grp.folded");
 
 /// The problem with its all-roots subsystem.
@@ -300,43 +305,22 @@ pub fn errors(x: &Unknowns, truth: &Unknowns) -> [f64; 2] {
     [c.clamp(-1.0, 1.0).acos().to_degrees(), 100.0 * (t - t0).norm() / t0.norm()]
 }
 
-/// 5. The registration: what `grp train|bench|solve|monodromy grp` need. Paths are tracked on
-///    the first 6 correspondences (`Grp6`, square: 7 equations, 7 unknowns); all 7 are read by
-///    the learned start and checked by the validator. `#[declared_problem]` takes the trait's
-///    sizes from `Tracked` and `Data`.
+/// 5. The solver's trait: what a solve needs. Paths are tracked on the first 6
+///    correspondences (`Grp6`, square: 7 equations, 7 unknowns); all 7 are read by the learned
+///    start and checked by the validator. `#[declared_problem]` takes the trait's sizes from
+///    `Tracked` and `Data`.
 #[simhc::declared_problem]
 impl DeclaredProblem for GenRelPose {
     type Tracked = Grp6;
     type Data = Grp7;
     type Validator = Coplanarity;
     const NAME: &'static str = "grp";
-    const ABOUT: &'static str = "Generalized relative pose with known scale: 6 correspondences and 1 to validate";
-    const ERRORS: &'static [&'static str] = &["E_R deg", "E_t %"];
 
-    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (Params, Unknowns) {
-        scene(rng, noise)
-    }
     fn validator(&self, noise: f64) -> Coplanarity {
         Coplanarity::for_noise(noise)
     }
-    fn errors(&self, x: &Unknowns, truth: &Unknowns) -> Vec<f64> {
-        errors(x, truth).to_vec()
-    }
-    fn correct(&self, e: &[f64]) -> bool {
-        e[0] < 2.0 && e[1] < 5.0
-    }
     fn canonicalize(&self, p: &Params) -> Option<(Params, CanonicalFrame)> {
         canonicalize(p)
-    }
-    fn training(&self) -> LearnedStartConfig {
-        // The shipped weights: `grp train grp --seed 1 --out weights/grp.folded` (8 start
-        // hypotheses, a context stage after the first layer; 123 s on the 2-core machine beside
-        // another training run, 2026-12-04). Eight ranked hypotheses instead of one: the shipped
-        // mean fell from 1011 to 85 us at the same median (`grp bench grp --trials 1000 --seed
-        // 1`). The context stage (every row also reads the pooled features of all rows) raised
-        // one path from 54.9 to 61.8 % and Gauss-Newton on all rows from 77.4 to 82.6 % on those
-        // trials (BENCHMARKS.md, 2026-12-04). Those are the trainer's defaults since 2026-12-05.
-        LearnedStartConfig::default()
     }
     const REFINES: bool = true;
     fn refine(&self, p: &Params, x0: &Unknowns) -> grp::Refinement {
@@ -345,15 +329,8 @@ impl DeclaredProblem for GenRelPose {
     fn weights(&self) -> Option<&'static [u8]> {
         Some(WEIGHTS)
     }
-    fn move_frames(&self, rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> Option<(Params, Unknowns)> {
-        Some(move_frames(rng, p, x))
-    }
     fn all_roots(&self) -> Option<&grp::AllRoots7<'_>> {
         Some(&self.all_roots)
-    }
-    fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, Unknowns)> {
-        let (rows, x) = scene_rows(rng, rows.max(2), noise);
-        Some((rows, Vec::new(), x))
     }
     /// The robust estimator's error: the Sampson error of the coplanarity equation, as an
     /// angle (radians) when both bearings carry angular noise (`sampson_angle`). The estimator
@@ -361,5 +338,30 @@ impl DeclaredProblem for GenRelPose {
     fn row_error(&self, x: &Unknowns, row: &[f64], _globals: &[f64]) -> f64 {
         let (r, t) = pose(x);
         sampson_angle(&r, &t, &std::array::from_fn(|k| Vector3::from_column_slice(&row[3 * k..3 * k + 3])))
+    }
+}
+
+/// 6. The commands' trait: the scene sampler and the errors that `grp train|bench|ransac grp`
+///    need beyond a solve; `#[declared_problem]` gives it the sizes of the impl above.
+#[simhc::declared_problem]
+impl Scenes for GenRelPose {
+    const ABOUT: &'static str = "Generalized relative pose with known scale: 6 correspondences and 1 to validate";
+    const ERRORS: &'static [&'static str] = &["E_R deg", "E_t %"];
+
+    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (Params, Unknowns) {
+        scene(rng, noise)
+    }
+    fn errors(&self, x: &Unknowns, truth: &Unknowns) -> Vec<f64> {
+        errors(x, truth).to_vec()
+    }
+    fn correct(&self, e: &[f64]) -> bool {
+        e[0] < 2.0 && e[1] < 5.0
+    }
+    fn move_frames(&self, rng: &mut ChaCha8Rng, p: &Params, x: &Unknowns) -> Option<(Params, Unknowns)> {
+        Some(move_frames(rng, p, x))
+    }
+    fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, Unknowns)> {
+        let (rows, x) = scene_rows(rng, rows.max(2), noise);
+        Some((rows, Vec::new(), x))
     }
 }

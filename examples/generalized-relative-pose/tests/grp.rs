@@ -506,7 +506,7 @@ fn a_users_problem_is_certified_without_a_line_of_its_own() {
 /// them is an error that names a run of rows holding it, and too few rows say how many.
 #[test]
 fn more_rows_than_the_instance_are_solved_on_the_first_and_validated_on_all() {
-    use simhc::solver::{DeclaredProblem, EstimateError, Solver};
+    use simhc::solver::{EstimateError, Scenes, Solver};
     let seed = 31;
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);

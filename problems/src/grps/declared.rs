@@ -1,7 +1,8 @@
-//! GRPS as a declared problem ([`simhc::solver::DeclaredProblem`]), on 7 and on 8
-//! correspondences ([`Grps7Problem`], [`Grps8Problem`]; [`GrpsSolvers`] dispatches by count),
-//! assembled by the runtime's generic [`Solver`]: the one GRPS solver behind `simhc solve grps`,
-//! `simhc bench grps|grps7|grps8`, Python `simhc.grps` / `simhc.estimate_grps` and the
+//! GRPS as a declared problem ([`simhc::solver::DeclaredProblem`], and
+//! [`simhc::solver::Scenes`] for the commands), on 7 and on 8 correspondences
+//! ([`Grps7Problem`], [`Grps8Problem`]; [`GrpsSolvers`] dispatches by count), assembled by the
+//! runtime's generic [`Solver`]: the one GRPS solver behind `simhc solve grps`, `simhc bench
+//! grps|grps7|grps8`, Python `simhc.grps` / `simhc.estimate_grps` and the
 //! trainer's evaluation.
 //!
 //! - tracked and data instance [`Grps8`] (or [`Grps7`]): measured, one path on all 8 correspondences
@@ -48,7 +49,7 @@ use simhc::pipeline::path::gauss_newton;
 use simhc::pipeline::{Generic, InputRows, OutputDecoding, PipelineOptions, StartError, StartProvider, Validator, Verdict};
 use simhc::solver::{
     rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, DegenerateInput, FirstRowsError, OtherSimulator, OtherStart, Refinement,
-    Solution, SolveError, Solver, SolverError,
+    Scenes, Solution, SolveError, Solver, SolverError,
 };
 use simhc::start_system::{MonodromyConfig, MonodromyReport, StartSystemError};
 use simhc::tracker::{NewtonOptions, TrackerOptions};
@@ -379,8 +380,8 @@ impl<const NP: usize> AllRoots<8, NP> for GrpsAllRoots {
     }
 }
 
-/// The `DeclaredProblem` impl of `GrpsProblem<$rows>` on instance `$instance` (`$nf`
-/// equations, `$np` parameters): the two differ in their sizes only.
+/// The `DeclaredProblem` and `Scenes` impls of `GrpsProblem<$rows>` on instance `$instance`
+/// (`$nf` equations, `$np` parameters): the two differ in their sizes only.
 macro_rules! grps_problem {
     ($rows:literal, $instance:ident, $nf:literal, $np:literal, $name:literal, $about:literal) => {
         impl DeclaredProblem<8, $nf, $np, { $instance::NC }, $np> for GrpsProblem<$rows> {
@@ -388,8 +389,6 @@ macro_rules! grps_problem {
             type Data = $instance;
             type Validator = GrpsValidator;
             const NAME: &'static str = $name;
-            const ABOUT: &'static str = $about;
-            const ERRORS: &'static [&'static str] = &["E_R deg", "E_t %", "E_s %"];
             const REFINES: bool = true;
             /// 13 axes times [`GRPS_RESTART_ANGLES_DEG`].
             const RESTARTS: usize = RESTARTS;
@@ -398,24 +397,8 @@ macro_rules! grps_problem {
             /// [`sample_attempts`].
             const SAMPLE_ATTEMPTS: usize = sample_attempts($rows);
 
-            fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, $np>, Unknowns) {
-                let config = GrpsSceneConfig { points: $rows, noise_px: noise, ..GrpsSceneConfig::default() };
-                // Only a bad noise (negative, not finite) fails: its scene is NaN, which every
-                // solve reports as an input error naming row 0.
-                match config.sample(rng).ok().and_then(|scene| Some((params_of::<$np>(&scene.correspondences)?, scene))) {
-                    Some((p, scene)) => (p, unknowns_of(&scene.rotation, &scene.translation, scene.scale)),
-                    None => (SVector::from_element(f64::NAN), Unknowns::from_element(f64::NAN)),
-                }
-            }
             fn validator(&self, noise: f64) -> GrpsValidator {
                 GrpsValidator::for_noise(noise, GrpsSceneConfig::default().focal_px)
-            }
-            fn errors(&self, x: &Unknowns, truth: &Unknowns) -> Vec<f64> {
-                errors(x, truth).to_vec()
-            }
-            /// The paper's criterion: `E_R < 2 deg`, `E_t < 5 %`, `E_s < 5 %`.
-            fn correct(&self, e: &[f64]) -> bool {
-                e.len() == 3 && e[0] < 2.0 && e[1] < 5.0 && e[2] < 5.0
             }
             /// [`validate`]: zero bearings, a single camera pair, a central view.
             fn check_input(&self, p: &SVector<f64, $np>) -> Result<(), DegenerateInput> {
@@ -445,23 +428,6 @@ macro_rules! grps_problem {
             fn weights(&self) -> Option<&'static [u8]> {
                 Some(GRPS_WEIGHTS)
             }
-            /// Random rotations of both views, random offsets of their origins, and random units of
-            /// view 2 (a factor in `[0.1, 10]`): [`GrpsScene::transformed`].
-            fn move_frames(&self, rng: &mut ChaCha8Rng, p: &SVector<f64, $np>, x: &Unknowns) -> Option<(SVector<f64, $np>, Unknowns)> {
-                let pose = GrpsPose::from_unknowns(x)?;
-                let scene = GrpsScene {
-                    correspondences: correspondences_of::<$rows>(p.as_slice()).to_vec(),
-                    rotation: pose.rotation,
-                    translation: pose.translation,
-                    scale: pose.scale,
-                };
-                let mut frame =
-                    || (rotation_from_quat(random_unit_quaternion(rng)), Vector3::from_fn(|_, _| rng.random_range(-10.0..10.0)));
-                let (v1, v2) = (frame(), frame());
-                let units = 10f64.powf(rng.random_range(-1.0..1.0));
-                let moved = scene.transformed((&v1.0, &v1.1), (&v2.0, &v2.1), units);
-                Some((params_of::<$np>(&moved.correspondences)?, unknowns_of(&moved.rotation, &moved.translation, moved.scale)))
-            }
             /// The predicted rotation with least-squares `(t, s)`, the swapped prediction and its
             /// rotation with least-squares `(t, s)` ([`PredictedStart`]).
             fn other_starts(&self) -> Vec<OtherStart<8, $np>> {
@@ -479,14 +445,6 @@ macro_rules! grps_problem {
             }
             fn all_roots(&self) -> Option<&dyn AllRoots<8, $np>> {
                 Some(&self.all_roots)
-            }
-            /// The problem's sampler with `rows` correspondences (at least the instance's):
-            /// rows of 12 numbers `[f, v, fp, vp]`, no globals (`simhc ransac grps7|grps8`).
-            fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, Unknowns)> {
-                let config = GrpsSceneConfig { points: rows.max($rows), noise_px: noise, ..GrpsSceneConfig::default() };
-                let scene = config.sample(rng).ok()?;
-                let data = row_numbers(&scene.correspondences).collect();
-                Some((data, Vec::new(), unknowns_of(&scene.rotation, &scene.translation, scene.scale)))
             }
             /// The robust estimator's error: the angular residual of the correspondence (radians).
             fn row_error(&self, x: &Unknowns, row: &[f64], _globals: &[f64]) -> f64 {
@@ -508,6 +466,52 @@ macro_rules! grps_problem {
                     (Some(a), Some(b)) => a.same(&b),
                     _ => false,
                 }
+            }
+        }
+
+        impl Scenes<8, $nf, $np, { $instance::NC }, $np> for GrpsProblem<$rows> {
+            const ABOUT: &'static str = $about;
+            const ERRORS: &'static [&'static str] = &["E_R deg", "E_t %", "E_s %"];
+            fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, $np>, Unknowns) {
+                let config = GrpsSceneConfig { points: $rows, noise_px: noise, ..GrpsSceneConfig::default() };
+                // Only a bad noise (negative, not finite) fails: its scene is NaN, which every
+                // solve reports as an input error naming row 0.
+                match config.sample(rng).ok().and_then(|scene| Some((params_of::<$np>(&scene.correspondences)?, scene))) {
+                    Some((p, scene)) => (p, unknowns_of(&scene.rotation, &scene.translation, scene.scale)),
+                    None => (SVector::from_element(f64::NAN), Unknowns::from_element(f64::NAN)),
+                }
+            }
+            fn errors(&self, x: &Unknowns, truth: &Unknowns) -> Vec<f64> {
+                errors(x, truth).to_vec()
+            }
+            /// The paper's criterion: `E_R < 2 deg`, `E_t < 5 %`, `E_s < 5 %`.
+            fn correct(&self, e: &[f64]) -> bool {
+                e.len() == 3 && e[0] < 2.0 && e[1] < 5.0 && e[2] < 5.0
+            }
+            /// Random rotations of both views, random offsets of their origins, and random units of
+            /// view 2 (a factor in `[0.1, 10]`): [`GrpsScene::transformed`].
+            fn move_frames(&self, rng: &mut ChaCha8Rng, p: &SVector<f64, $np>, x: &Unknowns) -> Option<(SVector<f64, $np>, Unknowns)> {
+                let pose = GrpsPose::from_unknowns(x)?;
+                let scene = GrpsScene {
+                    correspondences: correspondences_of::<$rows>(p.as_slice()).to_vec(),
+                    rotation: pose.rotation,
+                    translation: pose.translation,
+                    scale: pose.scale,
+                };
+                let mut frame =
+                    || (rotation_from_quat(random_unit_quaternion(rng)), Vector3::from_fn(|_, _| rng.random_range(-10.0..10.0)));
+                let (v1, v2) = (frame(), frame());
+                let units = 10f64.powf(rng.random_range(-1.0..1.0));
+                let moved = scene.transformed((&v1.0, &v1.1), (&v2.0, &v2.1), units);
+                Some((params_of::<$np>(&moved.correspondences)?, unknowns_of(&moved.rotation, &moved.translation, moved.scale)))
+            }
+            /// The problem's sampler with `rows` correspondences (at least the instance's):
+            /// rows of 12 numbers `[f, v, fp, vp]`, no globals (`simhc ransac grps7|grps8`).
+            fn scene_rows(&self, rng: &mut ChaCha8Rng, rows: usize, noise: f64) -> Option<(Vec<f64>, Vec<f64>, Unknowns)> {
+                let config = GrpsSceneConfig { points: rows.max($rows), noise_px: noise, ..GrpsSceneConfig::default() };
+                let scene = config.sample(rng).ok()?;
+                let data = row_numbers(&scene.correspondences).collect();
+                Some((data, Vec::new(), unknowns_of(&scene.rotation, &scene.translation, scene.scale)))
             }
         }
     };

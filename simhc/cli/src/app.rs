@@ -54,7 +54,7 @@ impl Verb {
 #[diagnostic::on_unimplemented(
     message = "`{Self}` is not a simhc command-line registration",
     label = "register a problem here",
-    note = "wrap a declared problem as `simhc_cli::Declared::new(..)` (its type implements `simhc::solver::DeclaredProblem`), or implement `simhc_cli::Registration`"
+    note = "wrap a declared problem as `simhc_cli::Declared::new(..)` (its type implements `simhc::solver::DeclaredProblem` and `simhc::solver::Scenes`), or implement `simhc_cli::Registration`"
 )]
 pub trait Registration {
     /// The name on the command line (`upnp`, `grps`): lower case, no spaces.

@@ -1,6 +1,7 @@
 //! The commands for any `#[simhc_problem]`: a user implements
-//! [`simhc::solver::DeclaredProblem`] (the compiled instance, a scene sampler, a validator, the
-//! errors a bench reports) and registers `Declared::new(problem)` in an [`crate::App`]:
+//! [`simhc::solver::DeclaredProblem`] (the compiled instances, a validator) and
+//! [`simhc::solver::Scenes`] (a scene sampler, the errors a bench reports) and registers
+//! `Declared::new(problem)` in an [`crate::App`]:
 //!
 //! - `train`: the generic learned start ([`simhc_regressor::generic`]) on the sampler's scenes,
 //!   with a progress bar; writes a `.folded` weights file;
@@ -11,7 +12,8 @@
 //!   ([`crate::ransac`]), for a problem with a many-row sampler;
 //! - `solve`: a JSON file of correspondences (read through the layout) to a validated solution;
 //! - `monodromy`: all solutions of a generic instance of the problem's square subsystem
-//!   ([`SquareSubsystem`]), written as the start system of the fallback and the All-roots row.
+//!   ([`simhc::solver::SquareSubsystem`]), written as the start system of the fallback and the
+//!   All-roots row.
 
 use crate::app::{progress_bar, Registration, Verb};
 use crate::builtin::MonodromyArgs;
@@ -27,8 +29,7 @@ use simhc::pipeline::bench::{bench_estimate_row, bench_row, table, BenchRow, Sco
 use simhc::pipeline::{Method, PipelineError};
 use simhc::solver::hypotheses::RankedStarts;
 use simhc::solver::{
-    shipped_schedule, AllRootsFallback, DeclaredProblem, LearnedHypotheses, RandomStart, SolveError, Solver, SolverAttempt, SolverOrigin,
-    StartId,
+    shipped_schedule, AllRootsFallback, LearnedHypotheses, RandomStart, Scenes, SolveError, Solver, SolverAttempt, SolverOrigin, StartId,
 };
 use simhc::ProblemLayout;
 #[cfg(feature = "train")]
@@ -44,7 +45,7 @@ pub struct Declared<S, const NX: usize, const NF: usize, const NP: usize, const 
 
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Declared<S, NX, NF, NP, NC, ND>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    S: Scenes<NX, NF, NP, NC, ND>,
 {
     /// Registers `problem`.
     pub fn new(problem: S) -> Self {
@@ -181,7 +182,7 @@ struct ProblemScore<'a, S, const NF: usize, const NP: usize, const NC: usize, co
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Score<NX>
     for ProblemScore<'_, S, NF, NP, NC, ND>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    S: Scenes<NX, NF, NP, NC, ND>,
 {
     fn names(&self) -> &[&'static str] {
         S::ERRORS
@@ -212,7 +213,7 @@ fn bench_json(rows: &[BenchRow]) -> serde_json::Value {
 
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Declared<S, NX, NF, NP, NC, ND>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    S: Scenes<NX, NF, NP, NC, ND>,
 {
     fn score(&self) -> ProblemScore<'_, S, NF, NP, NC, ND> {
         ProblemScore(&self.problem)
@@ -317,7 +318,7 @@ where
                 (p, x) = self
                     .problem
                     .move_frames(&mut rng, &p, &x)
-                    .ok_or_else(|| format!("{} has no random frames (DeclaredProblem::move_frames)", S::NAME))?;
+                    .ok_or_else(|| format!("{} has no random frames (Scenes::move_frames)", S::NAME))?;
             }
             if a.permute {
                 p = permute_rows(&S::Data::LAYOUT, &p, &mut rng);
@@ -548,7 +549,7 @@ fn read_trials<const NP: usize, const NX: usize>(path: &Path) -> Result<Trials<N
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize> Registration
     for Declared<S, NX, NF, NP, NC, ND>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    S: Scenes<NX, NF, NP, NC, ND>,
 {
     fn name(&self) -> &'static str {
         S::NAME

@@ -9,7 +9,8 @@
 //! }
 //! ```
 //!
-//! The problem trait ([`simhc::solver::DeclaredProblem`]) and the library solver
+//! The problem traits ([`simhc::solver::DeclaredProblem`] for a solve, [`simhc::solver::Scenes`]
+//! for the commands) and the library solver
 //! ([`simhc::solver::Solver`]: built once, `solve`, `solve_batch`, and the robust `estimate`
 //! over any number of correspondences with outliers) live in the runtime; this crate adapts
 //! them to commands.

@@ -1,7 +1,7 @@
 //! `<app> ransac <problem>`: a problem's robust estimator on seeded scenes with wrong matches,
 //! at several outlier ratios: success (the problem's own criterion on its errors), inlier
 //! recall, wrong matches taken and time per call. One implementation for every problem (UPnP
-//! and every declared problem with a many-row sampler, [`DeclaredProblem::scene_rows`]): the
+//! and every declared problem with a many-row sampler, [`Scenes::scene_rows`]): the
 //! problem brings a sampler and an estimator call; the trials, the trials file, the statistics
 //! and the output are here.
 //!
@@ -25,7 +25,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use simhc::layout::FieldLayout;
 use simhc::ransac::RansacOptions;
-use simhc::solver::{DeclaredProblem, Solver};
+use simhc::solver::{Scenes, Solver};
 use simhc::ProblemLayout;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -547,14 +547,14 @@ pub fn evaluate(
 }
 
 /// The trials of a declared problem's `ransac` ([`trials`] with the problem's many-row
-/// sampler, [`DeclaredProblem::scene_rows`]): the fields are the layout's, a trial has at least
+/// sampler, [`Scenes::scene_rows`]): the fields are the layout's, a trial has at least
 /// the data instance's rows.
 pub fn declared_trials<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, const ND: usize>(
     problem: &S,
     a: &RansacArgs,
 ) -> Result<(TrialsFile, String), String>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    S: Scenes<NX, NF, NP, NC, ND>,
 {
     let layout = S::Data::LAYOUT;
     let spec = TrialSpec {
@@ -565,7 +565,7 @@ where
         min_rows: layout.rows,
     };
     let (data_rows, per_row) = (layout.rows, layout.per_row);
-    let missing = || format!("{} has no many-row sampler (DeclaredProblem::scene_rows)", S::NAME);
+    let missing = || format!("{} has no many-row sampler (Scenes::scene_rows)", S::NAME);
     trials(a, &spec, |rng, rows, noise, ratio| {
         let (mut data, globals, truth) = problem.scene_rows(rng, rows, noise).ok_or_else(missing)?;
         let short = |n: usize, rows: usize| format!("{}'s sampler gave {n} numbers for {rows} rows of {per_row}", S::NAME);
@@ -594,7 +594,7 @@ pub fn estimate_declared<S, const NX: usize, const NF: usize, const NP: usize, c
     file: &TrialsFile,
 ) -> Result<RansacReport, String>
 where
-    S: DeclaredProblem<NX, NF, NP, NC, ND>,
+    S: Scenes<NX, NF, NP, NC, ND>,
 {
     evaluate(file, |trial, options| {
         let rows: Vec<f64> = trial.rows.concat();

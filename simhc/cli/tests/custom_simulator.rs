@@ -11,7 +11,8 @@ use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::PipelineError;
 use simhc::pipeline::{Method, StartError, StartProvider, StartSimulator};
 use simhc::solver::{
-    DeclaredProblem, OtherSimulator, OtherStart, Solver, SolverAttempt, SolverError, SolverOrigin, StartId, MAX_OTHERS, MAX_RESTARTS,
+    DeclaredProblem, OtherSimulator, OtherStart, Scenes, Solver, SolverAttempt, SolverError, SolverOrigin, StartId, MAX_OTHERS,
+    MAX_RESTARTS,
 };
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
 use simhc_cli::{App, Declared};
@@ -56,6 +57,12 @@ impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Line {
     type Data = Line3;
     type Validator = Residual;
     const NAME: &'static str = "line";
+    fn validator(&self, _: f64) -> Residual {
+        Residual
+    }
+}
+
+impl Scenes<1, 3, 6, { Line3::NC }, 6> for Line {
     const ABOUT: &'static str = "a line through the origin";
     const ERRORS: &'static [&'static str] = &["slope error"];
     fn scene(&self, rng: &mut ChaCha8Rng, _: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
@@ -67,9 +74,6 @@ impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Line {
         }
         (p, SVector::from([a]))
     }
-    fn validator(&self, _: f64) -> Residual {
-        Residual
-    }
     fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
         vec![(x[0] - truth[0]).abs()]
     }
@@ -78,25 +82,16 @@ impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Line {
     }
 }
 
-/// The items every variant of the line shares with [`Line`]: its instances, validator,
-/// scenes and errors (a variant adds its name and the hook it tests).
+/// The items every variant of the line shares with [`Line`]: its instances and validator (a
+/// variant adds its name and the hook it tests). The variants are solved, never registered, so
+/// they have no `Scenes`: their scenes are [`Line`]'s.
 macro_rules! like_line {
     () => {
         type Tracked = Line3;
         type Data = Line3;
         type Validator = Residual;
-        const ERRORS: &'static [&'static str] = &["slope error"];
-        fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
-            Line.scene(rng, noise)
-        }
         fn validator(&self, noise: f64) -> Residual {
             Line.validator(noise)
-        }
-        fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
-            Line.errors(x, truth)
-        }
-        fn correct(&self, errors: &[f64]) -> bool {
-            Line.correct(errors)
         }
     };
 }
@@ -181,7 +176,6 @@ struct Listed {
 impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Listed {
     like_line!();
     const NAME: &'static str = "listed";
-    const ABOUT: &'static str = "a line through the origin with other starts and simulators";
     fn other_starts(&self) -> Vec<OtherStart<1, 6>> {
         (0..self.starts).map(|_| Box::new(LeastSquares) as OtherStart<1, 6>).collect()
     }
@@ -224,7 +218,7 @@ fn the_other_starts_and_simulators_run_after_the_learned_start() {
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for _ in 0..10 {
-        let (p, truth) = Listed { starts: 1, simulators: 1 }.scene(&mut rng, 0.0);
+        let (p, truth) = Line.scene(&mut rng, 0.0);
         // Each attempt with the listed start or simulator alone: it runs them and solves.
         for attempt in listed {
             let (starts, simulations) = (OTHER_STARTS.load(Ordering::SeqCst), OTHER_SIMULATIONS.load(Ordering::SeqCst));
@@ -273,7 +267,6 @@ struct Restarted<const R: usize>;
 impl<const R: usize> DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Restarted<R> {
     like_line!();
     const NAME: &'static str = "restarted";
-    const ABOUT: &'static str = "a line through the origin with restarts";
     const RESTARTS: usize = R;
     fn restart(&self, _p: &SVector<f64, 6>, x: &SVector<f64, 1>, k: usize) -> Option<SVector<f64, 1>> {
         RESTARTED_FROM.lock().unwrap().push((k, x[0]));
@@ -300,7 +293,7 @@ fn restarts_start_from_the_learned_hypothesis_and_come_last() {
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     for _ in 0..5 {
-        let (p, truth) = Restarted::<3>.scene(&mut rng, 0.0);
+        let (p, truth) = Line.scene(&mut rng, 0.0);
         // The learned hypothesis, as the pipeline's own start attempt returns it (validated or not).
         let hypothesis = match solver.run_pipeline(&p, &[SolverAttempt::new(StartId::LEARNED, Method::Start)], false, None) {
             Ok(s) => s.x[0],
@@ -339,7 +332,6 @@ struct OneStep;
 impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for OneStep {
     like_line!();
     const NAME: &'static str = "one-step";
-    const ABOUT: &'static str = "a line through the origin, paths of one step";
     fn options(&self) -> simhc::pipeline::PipelineOptions {
         let mut o = simhc::pipeline::PipelineOptions::default();
         o.tracker.max_steps = 1;

@@ -6,7 +6,7 @@ use nalgebra::SVector;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::InputRows;
-use simhc::solver::DeclaredProblem;
+use simhc::solver::{DeclaredProblem, Scenes};
 use simhc_cli::{App, Declared};
 use std::cell::Cell;
 use std::rc::Rc;
@@ -58,6 +58,15 @@ impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Line {
     type Data = Line3;
     type Validator = Residual;
     const NAME: &'static str = "line";
+    fn validator(&self, _: f64) -> Residual {
+        Residual
+    }
+    fn input_rows(&self) -> Option<&dyn InputRows> {
+        self.rows.as_ref().map(|r| r as &dyn InputRows)
+    }
+}
+
+impl Scenes<1, 3, 6, { Line3::NC }, 6> for Line {
     const ABOUT: &'static str = "a line through the origin";
     const ERRORS: &'static [&'static str] = &["slope error"];
     fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, 6>, SVector<f64, 1>) {
@@ -70,17 +79,11 @@ impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Line {
         }
         (p, SVector::from([a]))
     }
-    fn validator(&self, _: f64) -> Residual {
-        Residual
-    }
     fn errors(&self, x: &SVector<f64, 1>, truth: &SVector<f64, 1>) -> Vec<f64> {
         vec![(x[0] - truth[0]).abs()]
     }
     fn correct(&self, errors: &[f64]) -> bool {
         errors[0] < 1e-6
-    }
-    fn input_rows(&self) -> Option<&dyn InputRows> {
-        self.rows.as_ref().map(|r| r as &dyn InputRows)
     }
 }
 

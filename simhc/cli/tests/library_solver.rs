@@ -11,7 +11,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Validator, Verdict};
 use simhc::ransac::RansacOptions;
-use simhc::solver::{CanonicalFrame, DeclaredProblem, EstimateError, SolveError, Solver};
+use simhc::solver::{CanonicalFrame, DeclaredProblem, EstimateError, Scenes, SolveError, Solver};
 use simhc_cli::{App, Declared};
 
 #[simhc::simhc_problem]
@@ -61,6 +61,12 @@ impl DeclaredProblem<2, 4, 8, { Line4::NC }, 8> for Line {
     type Data = Line4;
     type Validator = Residual;
     const NAME: &'static str = "line";
+    fn validator(&self, noise: f64) -> Residual {
+        Residual(1e-9 + 6.0 * noise)
+    }
+}
+
+impl Scenes<2, 4, 8, { Line4::NC }, 8> for Line {
     const ABOUT: &'static str = "a line y = a x + b";
     const ERRORS: &'static [&'static str] = &["error"];
     fn scene(&self, rng: &mut ChaCha8Rng, _: f64) -> (P, X) {
@@ -71,9 +77,6 @@ impl DeclaredProblem<2, 4, 8, { Line4::NC }, 8> for Line {
             p[2 * r + 1] = a * p[2 * r] + b;
         }
         (p, X::new(a, b))
-    }
-    fn validator(&self, noise: f64) -> Residual {
-        Residual(1e-9 + 6.0 * noise)
     }
     fn errors(&self, x: &X, truth: &X) -> Vec<f64> {
         vec![(x - truth).amax()]
@@ -125,22 +128,25 @@ impl DeclaredProblem<2, 4, 8, { Line4::NC }, 8> for NanFrame {
     type Data = Line4;
     type Validator = Residual;
     const NAME: &'static str = "nan-frame";
+    fn validator(&self, noise: f64) -> Residual {
+        Line.validator(noise)
+    }
+    fn canonicalize(&self, _: &P) -> Option<(P, CanonicalFrame<2>)> {
+        Some((P::from_element(f64::NAN), CanonicalFrame::new(|x| *x, |x| *x)))
+    }
+}
+
+impl Scenes<2, 4, 8, { Line4::NC }, 8> for NanFrame {
     const ABOUT: &'static str = "a line whose canonical frame is degenerate";
     const ERRORS: &'static [&'static str] = &["error"];
     fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (P, X) {
         Line.scene(rng, noise)
-    }
-    fn validator(&self, noise: f64) -> Residual {
-        Line.validator(noise)
     }
     fn errors(&self, x: &X, truth: &X) -> Vec<f64> {
         Line.errors(x, truth)
     }
     fn correct(&self, errors: &[f64]) -> bool {
         Line.correct(errors)
-    }
-    fn canonicalize(&self, _: &P) -> Option<(P, CanonicalFrame<2>)> {
-        Some((P::from_element(f64::NAN), CanonicalFrame::new(|x| *x, |x| *x)))
     }
 }
 

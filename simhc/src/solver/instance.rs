@@ -1,8 +1,8 @@
 //! What a [`super::Solver`] needs of a problem, for data of any type `D`: [`InstanceProblem`].
 //!
 //! Most problems are row-wise: their data is a fixed-length parameter vector whose first rows
-//! are the tracked system's parameters, and they implement [`DeclaredProblem`] (with a scene
-//! sampler for `bench` and `train`); every such problem implements [`InstanceProblem`] for
+//! are the tracked system's parameters, and they implement [`DeclaredProblem`] (and
+//! [`super::Scenes`] for the commands); every such problem implements [`InstanceProblem`] for
 //! `D = SVector<f64, ND>` through the blanket impl below, without a line more. A problem whose
 //! tracked parameters are *derived* from the data implements [`InstanceProblem`] directly:
 //! UPnP (`simhc_problems::upnp::instance`) takes any number of correspondences

@@ -1,20 +1,21 @@
 //! A declared problem's compiled solver as a library value.
 //!
-//! A problem implements [`DeclaredProblem`] (its compiled instances, a validator, a scene
-//! sampler, optional hooks); [`Solver`] assembles the solve from it once (weights, start
-//! system) and then solves any number of times from any thread, without heap allocation per
-//! validated solve; [`InstanceSolver::estimate`] is the robust estimator over correspondences
-//! with outliers. The `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same
-//! trait, and the built-in problems' toolkits ([`SquareSubsystem`] for the all-roots fallback,
-//! [`crate::start_system`] for its start system) live here too, so a problem library depends
-//! on the runtime only.
+//! A problem implements [`DeclaredProblem`] (its compiled instances, a validator, optional
+//! hooks); [`Solver`] assembles the solve from it once (weights, start system) and then solves
+//! any number of times from any thread, without heap allocation per validated solve;
+//! [`InstanceSolver::estimate`] is the robust estimator over correspondences with outliers. The
+//! `simhc-cli` commands (`train`, `bench`, `ransac`, `solve`, `monodromy`) also need
+//! [`Scenes`] (a scene sampler, the errors a bench reports). The built-in problems' toolkits
+//! ([`SquareSubsystem`] for the all-roots fallback, [`crate::start_system`] for its start
+//! system) live here too, so a problem library depends on the runtime only.
 //!
 //! The modules stack from the ground up, each importing only those above it in this list:
 //!
 //! - [`subsystem`]: all roots of a square subsystem;
 //! - [`residual`]: a row's equations and the default per-correspondence error;
 //! - [`schedule`]: what a solve tries in which order, each attempt naming its start;
-//! - [`problem`]: the trait and its hook types;
+//! - [`problem`]: the trait of a solve and its hook types;
+//! - [`scenes`]: the trait of the commands, on top of it;
 //! - [`parts`]: the parts a solve is assembled from (tracked parameters, random and given
 //!   starts, the canonical frame);
 //! - [`rows`]: a row-wise problem's learned-start rows and outputs;
@@ -39,6 +40,7 @@ pub mod problem;
 pub mod residual;
 pub mod restarts;
 pub mod rows;
+pub mod scenes;
 pub mod schedule;
 pub mod subsystem;
 
@@ -51,9 +53,10 @@ pub use library::{
 };
 pub use many_rows::RowsSolution;
 pub use parts::{Canon, FirstRows, FirstRowsError, GivenStart, RandomStart};
-pub use problem::{CanonicalFrame, DeclaredProblem, DegenerateInput, OtherSimulator, OtherStart, Refinement};
+pub use problem::{CanonicalFrame, DeclaredProblem, DeclaredSizes, DegenerateInput, OtherSimulator, OtherStart, Refinement};
 pub use residual::row_residual;
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
 pub use rows::{ProblemOutputs, ProblemRows};
+pub use scenes::Scenes;
 pub use schedule::{sample_schedule, shipped_schedule, SolverAttempt, StartId};
 pub use subsystem::{AllRoots, AllRootsFallback, SquareSubsystem};

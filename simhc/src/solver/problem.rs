@@ -1,18 +1,19 @@
-//! The problem trait of a compiled solver: what a declared problem brings (its compiled
-//! instances, a validator, a scene sampler and the errors a bench reports) and its optional
-//! hooks (refinement on all rows, a canonical frame, learned-start rows, an all-roots
-//! fallback, a per-correspondence error). [`super::Solver`] assembles a solve from it; the
-//! `simhc-cli` commands (`train`, `bench`, `solve`, `monodromy`) adapt the same trait.
+//! The problem trait of a compiled solver: what a solve of a declared problem needs (its
+//! compiled instances and a validator) and its optional hooks (refinement on all rows, a
+//! canonical frame, learned-start rows, an all-roots fallback, a per-correspondence error).
+//! [`super::Solver`] assembles a solve from it; what only the `simhc-cli` commands need (a
+//! scene sampler, the errors a bench reports, training settings) is [`super::Scenes`].
 
 use super::subsystem::AllRoots;
 use crate::pipeline::{InputRows, OutputDecoding, PipelineOptions, StartProvider, StartSimulator, Validator};
-use crate::training::LearnedStartConfig;
 use crate::{CoefficientForm, InstanceSizes, OnlineSimulator, ParamDerivative, ProblemLayout};
 use nalgebra::SVector;
-use rand_chacha::ChaCha8Rng;
 use smallbox::{smallbox, space, SmallBox};
 
-/// A declared problem: what its solver, its robust estimator and its commands need.
+/// A declared problem: what its solver and its robust estimator need. The commands need more
+/// ([`super::Scenes`], implemented beside this one): a solve has no use for a scene sampler or
+/// a bench's errors, so a problem used only as a library ([`super::Solver`], Python) implements
+/// this trait alone.
 ///
 /// Two compiled instances of the declaration take part: `Data`, whose rows are the user's
 /// correspondences (all of them: the learned start reads them, the validator checks them), and
@@ -41,12 +42,8 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     type Data: ProblemLayout + InstanceSizes<NX, ND>;
     /// What decides that an end point is a solution of all the data.
     type Validator: Validator<SVector<f64, ND>, NX>;
-    /// The name on the command line (lower case).
+    /// The name on the command line (lower case); errors of a solve name the problem by it.
     const NAME: &'static str;
-    /// One line for `--help`.
-    const ABOUT: &'static str;
-    /// Names of the errors [`DeclaredProblem::errors`] returns (bench columns).
-    const ERRORS: &'static [&'static str];
     /// Whether [`DeclaredProblem::refine`] is implemented: the shipped schedule then starts
     /// with Gauss-Newton on all rows, and bench adds that row.
     const REFINES: bool = false;
@@ -63,15 +60,8 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// never). Default `1`: Gauss-Newton from the learned start ([`super::sample_schedule`]).
     const SAMPLE_ATTEMPTS: usize = 1;
 
-    /// A scene with noise of size `noise` (the problem's unit, for example pixels): the
-    /// parameters of all its rows (`Data`) and its true unknowns.
-    fn scene(&self, rng: &mut ChaCha8Rng, noise: f64) -> (SVector<f64, ND>, SVector<f64, NX>);
     /// The validator for data with noise of size `noise`.
     fn validator(&self, noise: f64) -> Self::Validator;
-    /// The errors of an estimate against the truth, in the order of [`DeclaredProblem::ERRORS`].
-    fn errors(&self, x: &SVector<f64, NX>, truth: &SVector<f64, NX>) -> Vec<f64>;
-    /// Whether errors of [`DeclaredProblem::errors`] count as a success.
-    fn correct(&self, errors: &[f64]) -> bool;
 
     /// Rejects data that no solve can use, before any attempt: a zero bearing, all rays from one
     /// origin (a scale that the data does not fix), too little spread. Such data has no
@@ -125,31 +115,8 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn options(&self) -> PipelineOptions {
         PipelineOptions::default()
     }
-    /// Training settings of the learned start (`train` overrides samples, epochs and seed):
-    /// plain data, the trainer is `simhc-regressor`.
-    fn training(&self) -> LearnedStartConfig {
-        LearnedStartConfig::default()
-    }
     /// The shipped weights (for example `include_bytes!`), used when no `--weights` is given.
     fn weights(&self) -> Option<&'static [u8]> {
-        None
-    }
-    /// The same scene seen in random frames (random rigid changes of every frame), for
-    /// `bench --random-frames`; `None`: the problem has no such change.
-    fn move_frames(
-        &self,
-        _rng: &mut ChaCha8Rng,
-        _p: &SVector<f64, ND>,
-        _x: &SVector<f64, NX>,
-    ) -> Option<(SVector<f64, ND>, SVector<f64, NX>)> {
-        None
-    }
-    /// A scene of `rows` correspondences (at least the data's rows) with noise of size `noise`:
-    /// its rows in the data layout's order, row after row, its global numbers and its true
-    /// unknowns. The `ransac` command makes wrong matches of some rows (rows of another
-    /// scene) and runs [`super::Solver::estimate`] on them. `None` (the default): the problem
-    /// has no such sampler, and no `ransac` command.
-    fn scene_rows(&self, _rng: &mut ChaCha8Rng, _rows: usize, _noise: f64) -> Option<(Vec<f64>, Vec<f64>, SVector<f64, NX>)> {
         None
     }
     /// More start providers, tried after every hypothesis of the learned start (before the
@@ -201,6 +168,24 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn same_solution(&self, a: &SVector<f64, NX>, b: &SVector<f64, NX>) -> bool {
         (a - b).amax() <= 1e-6 * (1.0 + a.amax())
     }
+}
+
+/// The five sizes of a type's [`DeclaredProblem`] impl, as constants, so that a second impl
+/// for the same type can name them without a number: `#[declared_problem]` implements this
+/// trait beside a `DeclaredProblem` impl (from its `type Tracked` and `type Data`) and sizes
+/// a [`super::Scenes`] impl of the same type from it. Const generics cannot be read back from
+/// a trait impl, so the sizes need a home of their own.
+#[diagnostic::on_unimplemented(
+    message = "`{Self}` has no `#[declared_problem]` impl of `simhc::solver::DeclaredProblem`",
+    label = "the sizes of this `Scenes` impl come from the type's `DeclaredProblem` impl",
+    note = "put `#[simhc::declared_problem]` on the type's `impl DeclaredProblem` too, or write the five sizes of both impls"
+)]
+pub trait DeclaredSizes {
+    /// `[NX, NF, NP, NC, ND]`: the tracked instance's unknowns, equations, parameters and
+    /// coefficients, then the data instance's parameters. One array, not five constants named
+    /// like an instance's (`Foo7::NP`): rustc would then suggest implementing this trait
+    /// wherever a type that is no instance is given as one.
+    const SIZES: [usize; 5];
 }
 
 /// A start provider of [`DeclaredProblem::other_starts`]: shared by the threads of a solver.

@@ -1,4 +1,4 @@
-// Wrapping a type that does not implement `DeclaredProblem` (sizes written out).
+// Wrapping a type that implements neither `Scenes` nor `DeclaredProblem` (sizes written out).
 struct NotDeclared;
 
 fn main() {

@@ -1,10 +1,11 @@
-// `#[simhc::declared_problem]` takes the sizes from `type Tracked` and `type Data`; every mistake
-// of the block is reported at once, at the user's tokens: sizes written as well, a missing
-// `type Data`, and (in the second impl) a type that is no compiled instance and a signature
-// written with another instance's parameter vector.
+// `#[simhc::declared_problem]` takes the sizes from `type Tracked` and `type Data`, and sizes a
+// `Scenes` impl of the same type alike; every mistake of a block is reported at once, at the
+// user's tokens: sizes written as well, a missing `type Data`, a type that is no compiled
+// instance, a `Scenes` signature written with another instance's parameter vector, and a
+// `Scenes` impl of a type whose `DeclaredProblem` impl is not under the attribute.
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Validator, Verdict};
-use simhc::solver::DeclaredProblem;
+use simhc::solver::{DeclaredProblem, Scenes};
 
 #[simhc::simhc_problem]
 pub mod line {
@@ -42,8 +43,6 @@ impl DeclaredProblem<1, 2, 4, 4, 6> for Line {
     type Tracked = line::Line2;
     type Validator = Exact;
     const NAME: &'static str = "line";
-    const ABOUT: &'static str = "a line through the origin";
-    const ERRORS: &'static [&'static str] = &[];
 }
 
 struct Other;
@@ -54,19 +53,8 @@ impl DeclaredProblem for Other {
     type Data = Line;
     type Validator = Exact;
     const NAME: &'static str = "other";
-    const ABOUT: &'static str = "a line through the origin";
-    const ERRORS: &'static [&'static str] = &[];
-    fn scene(&self, _: &mut ChaCha8Rng, _: f64) -> (line::Params3, line::UnknownVector) {
-        unimplemented!()
-    }
     fn validator(&self, _: f64) -> Exact {
         Exact
-    }
-    fn errors(&self, _: &line::UnknownVector, _: &line::UnknownVector) -> Vec<f64> {
-        Vec::new()
-    }
-    fn correct(&self, _: &[f64]) -> bool {
-        true
     }
 }
 
@@ -78,13 +66,44 @@ impl DeclaredProblem for Wrong {
     type Data = line::Line3;
     type Validator = Exact;
     const NAME: &'static str = "wrong";
+    fn validator(&self, _: f64) -> Exact {
+        Exact
+    }
+}
+
+#[simhc::declared_problem]
+impl Scenes for Wrong {
     const ABOUT: &'static str = "a line through the origin";
     const ERRORS: &'static [&'static str] = &[];
     fn scene(&self, _: &mut ChaCha8Rng, _: f64) -> (line::Params2, line::UnknownVector) {
         unimplemented!()
     }
+    fn errors(&self, _: &line::UnknownVector, _: &line::UnknownVector) -> Vec<f64> {
+        Vec::new()
+    }
+    fn correct(&self, _: &[f64]) -> bool {
+        true
+    }
+}
+
+struct HandSized;
+
+impl DeclaredProblem<1, 2, 4, { line::Line2::NC }, 6> for HandSized {
+    type Tracked = line::Line2;
+    type Data = line::Line3;
+    type Validator = Exact;
+    const NAME: &'static str = "unsized";
     fn validator(&self, _: f64) -> Exact {
         Exact
+    }
+}
+
+#[simhc::declared_problem]
+impl Scenes for HandSized {
+    const ABOUT: &'static str = "a line through the origin";
+    const ERRORS: &'static [&'static str] = &[];
+    fn scene(&self, _: &mut ChaCha8Rng, _: f64) -> (line::Params3, line::UnknownVector) {
+        unimplemented!()
     }
     fn errors(&self, _: &line::UnknownVector, _: &line::UnknownVector) -> Vec<f64> {
         Vec::new()

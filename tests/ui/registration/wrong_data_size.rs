@@ -1,7 +1,6 @@
 // A declared problem whose data size is not its data instance's: `Line2` has 4 parameters,
 // not ND = 5. The tracked sizes are right; the error names the `type Data` line.
 use nalgebra::SVector;
-use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Validator, Verdict};
 
 #[simhc::simhc_problem]
@@ -40,19 +39,8 @@ impl simhc::solver::DeclaredProblem<1, 2, 4, { line::Line2::NC }, 5> for Line {
     type Data = line::Line2;
     type Validator = Exact;
     const NAME: &'static str = "line";
-    const ABOUT: &'static str = "a line through the origin";
-    const ERRORS: &'static [&'static str] = &[];
-    fn scene(&self, _: &mut ChaCha8Rng, _: f64) -> (SVector<f64, 5>, SVector<f64, 1>) {
-        (SVector::zeros(), SVector::zeros())
-    }
     fn validator(&self, _: f64) -> Exact {
         Exact
-    }
-    fn errors(&self, _: &SVector<f64, 1>, _: &SVector<f64, 1>) -> Vec<f64> {
-        Vec::new()
-    }
-    fn correct(&self, _: &[f64]) -> bool {
-        true
     }
 }
 

@@ -53,6 +53,7 @@ def estimate_upnp(
     seed: int = 0,
     local_optimization: bool = True,
     refine_rounds: int = 2,
+    skip_explained: bool = False,
 ) -> tuple[Pose, Info]:
     """Robust generalized absolute pose from (N, 3) arrays with outliers, N >= 4.
     ``threshold``: largest angle (radians) between a bearing and its point for an inlier.
@@ -71,6 +72,7 @@ def estimate_grps(
     seed: int = 0,
     local_optimization: bool = True,
     refine_rounds: int = 2,
+    skip_explained: bool = False,
 ) -> tuple[Pose, Info]:
     """Robust generalized relative pose and scale from (N, 3) arrays with outliers, N >= 7.
     ``threshold``: largest angular residual (sine of the angle between a bearing and its epipolar plane) for an inlier.

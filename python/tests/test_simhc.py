@@ -98,6 +98,19 @@ def test_estimate_upnp_finds_the_inliers_among_outliers(seed):
     assert np.linalg.norm(pose.t - t) < 0.05 * np.linalg.norm(t), f"seed {seed}"
 
 
+def test_skip_explained_solves_fewer_samples_and_finds_the_same_inliers():
+    rng = np.random.default_rng(1021)
+    p, f, v, r, t = upnp_scene(21, n=80)
+    outliers = rng.choice(80, 16, replace=False)  # 20 %
+    p[outliers] += rng.uniform(-3, 3, (16, 3))
+    plain_pose, plain = simhc.estimate_upnp(p, f, v, seed=3)
+    pose, info = simhc.estimate_upnp(p, f, v, seed=3, skip_explained=True)
+    assert info["iterations"] == plain["iterations"]  # skipped samples still count
+    assert info["models"] < plain["models"], (info["models"], plain["models"])
+    assert (info["inlier_mask"] == plain["inlier_mask"]).all()
+    assert rotation_error_deg(pose.R, r) < 2.0
+
+
 def test_estimate_grps_finds_the_inliers_among_outliers():
     seed = 23
     rng = np.random.default_rng(seed + 1000)

@@ -309,7 +309,16 @@ pub fn ransac_options(
     if min_iterations > max_iterations {
         return Err(Failure::Input(format!("`min_iterations` {min_iterations} exceeds `max_iterations` {max_iterations}")));
     }
-    Ok(RansacOptions { threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds })
+    Ok(RansacOptions {
+        threshold,
+        max_iterations,
+        min_iterations,
+        confidence,
+        seed,
+        local_optimization,
+        refine_rounds,
+        skip_explained: false,
+    })
 }
 
 #[pymethods]
@@ -388,8 +397,10 @@ impl ProblemSolver {
     /// defaults; `threshold` is in the units of the problem's row error, `noise` (the data's,
     /// in the problem's unit) sets how far a sample's solution may miss its own rows. Returns
     /// `(unknowns, info)`, `info` holding `iterations`, `num_inliers`, `inlier_ratio`,
-    /// `inlier_mask` (bool array), `score`, `refinements` and `models`.
-    #[pyo3(signature = (rows, globals = None, *, threshold, noise = 0.0, max_iterations = 100_000, min_iterations = 1000, confidence = 0.9999, seed = 0, local_optimization = true, refine_rounds = 2))]
+    /// `inlier_mask` (bool array), `score`, `refinements` and `models`. `skip_explained=True`:
+    /// past the confidence, samples whose rows are all inliers of the best model are not solved
+    /// (much faster with few outliers, about one point of success less at 20-40 %).
+    #[pyo3(signature = (rows, globals = None, *, threshold, noise = 0.0, max_iterations = 100_000, min_iterations = 1000, confidence = 0.9999, seed = 0, local_optimization = true, refine_rounds = 2, skip_explained = false))]
     #[allow(clippy::too_many_arguments)]
     fn estimate<'py>(
         &self,
@@ -404,9 +415,11 @@ impl ProblemSolver {
         seed: u64,
         local_optimization: bool,
         refine_rounds: usize,
+        skip_explained: bool,
     ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyDict>)> {
         let (x, info) = (|| {
-            let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?;
+            let options = ransac_options(threshold, max_iterations, min_iterations, confidence, seed, local_optimization, refine_rounds)?
+                .skipping_explained(skip_explained);
             let (_, rows) = self.rows(rows)?;
             let globals = self.globals(globals)?;
             self.estimate_rows(py, rows, globals, &options, noise)

@@ -334,7 +334,7 @@ where
     fn ransac(&self, a: RansacArgs) -> Result<(), String> {
         let (file, source) = crate::ransac::declared_trials(&*self.problem, &a)?;
         let solver = self.solver(&a.weights, file.noise)?;
-        let report = crate::ransac::estimate_declared(&*self.problem, &solver, &file)?;
+        let report = crate::ransac::estimate_declared(&*self.problem, &solver, &file, a.skip_explained)?;
         crate::ransac::print(&a, &file, &source, &report)
     }
 

@@ -66,6 +66,11 @@ pub struct RansacArgs {
     /// Print one JSON object (the summary rows and every trial's result) instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Past the confidence, do not solve samples whose rows are all inliers of the best model
+    /// (`RansacOptions::skip_explained`): much faster with few outliers, about one point of
+    /// success less at 20-40 % outliers on problems with several roots per sample.
+    #[arg(long)]
+    pub skip_explained: bool,
 }
 
 impl RansacArgs {
@@ -82,6 +87,7 @@ impl RansacArgs {
             trials_file: None,
             dump_trials: None,
             json: false,
+            skip_explained: false,
         }
     }
 }
@@ -496,14 +502,15 @@ pub struct RansacReport {
 }
 
 /// Runs `estimate(trial, options)` on every trial of `file` (options: PoseLib's iteration
-/// defaults, the file's threshold, the trial's seed) and sums up.
+/// defaults, the file's threshold, the trial's seed, `skip_explained`) and sums up.
 pub fn evaluate(
     file: &TrialsFile,
+    skip_explained: bool,
     mut estimate: impl FnMut(&RansacTrial, &RansacOptions) -> Result<Estimated, String>,
 ) -> Result<RansacReport, String> {
     let mut results = Vec::with_capacity(file.trials.len());
     for t in &file.trials {
-        let options = RansacOptions { seed: t.estimator_seed, ..RansacOptions::poselib(file.threshold) };
+        let options = RansacOptions { seed: t.estimator_seed, skip_explained, ..RansacOptions::poselib(file.threshold) };
         let e = estimate(t, &options)?;
         let result = match e.estimate {
             Some((x, success, mask)) => {
@@ -592,11 +599,12 @@ pub fn estimate_declared<S, const NX: usize, const NF: usize, const NP: usize, c
     problem: &S,
     solver: &Solver<S, NX, NF, NP, NC, ND>,
     file: &TrialsFile,
+    skip_explained: bool,
 ) -> Result<RansacReport, String>
 where
     S: Scenes<NX, NF, NP, NC, ND>,
 {
-    evaluate(file, |trial, options| {
+    evaluate(file, skip_explained, |trial, options| {
         let rows: Vec<f64> = trial.rows.concat();
         let truth = SVector::<f64, NX>::from_column_slice(&trial.truth);
         let t0 = Instant::now();
@@ -613,13 +621,14 @@ pub fn print(a: &RansacArgs, file: &TrialsFile, source: &str, report: &RansacRep
     if a.json {
         let value = serde_json::json!({
             "problem": file.problem, "source": source, "seed": file.seed, "noise": file.noise, "threshold": file.threshold,
-            "rows": report.rows, "trials": report.trials,
+            "skip_explained": a.skip_explained, "rows": report.rows, "trials": report.trials,
         });
         println!("{}", serde_json::to_string_pretty(&value).map_err(|e| e.to_string())?);
         return Ok(());
     }
+    let skip = if a.skip_explained { " (samples the best model explains skipped past the confidence)" } else { "" };
     println!(
-        "{} ransac: {source}; noise {}, threshold {}, PoseLib's iteration defaults, single thread",
+        "{} ransac: {source}; noise {}, threshold {}, PoseLib's iteration defaults{skip}, single thread",
         file.problem, file.noise, file.threshold
     );
     print!("{}", table(&report.rows));
@@ -728,8 +737,8 @@ mod tests {
     fn the_rows_sum_up_each_ratio() {
         let file = sampled_file();
         // An "estimator" that marks every row inlier and succeeds on the noise-free ratio only.
-        let report = evaluate(&file, |t, o| {
-            assert_eq!(o.seed, t.estimator_seed);
+        let report = evaluate(&file, true, |t, o| {
+            assert_eq!((o.seed, o.skip_explained), (t.estimator_seed, true));
             Ok(Estimated { estimate: Some((vec![2.0], t.outliers == 0.0, vec![true; t.rows.len()])), ms: 1.0 })
         })
         .expect("runs");

@@ -355,7 +355,7 @@ pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<(crate::ransac::TrialsFil
     // A sample's pose may miss its own correspondences by 8 times the noise.
     let problem = UpnpProblem { max_angle: (8.0 * file.noise / focal_px).max(1e-6), ..UpnpProblem::default() };
     let solver = UpnpLibrarySolver::with_learned(std::sync::Arc::new(problem), learned, 0.0).map_err(|e| e.to_string())?;
-    let report = crate::ransac::evaluate(&file, |trial, options| {
+    let report = crate::ransac::evaluate(&file, a.skip_explained, |trial, options| {
         let v3 = |s: &[f64]| nalgebra::Vector3::new(s[0], s[1], s[2]);
         let corrs: Vec<UpnpCorrespondence> =
             trial.rows.iter().map(|r| UpnpCorrespondence { p: v3(&r[0..3]), f: v3(&r[3..6]), v: v3(&r[6..9]) }).collect();

@@ -269,7 +269,7 @@ fn the_ransac_command_measures_the_estimator_and_needs_a_many_row_sampler() {
     let args = simhc_cli::ransac::RansacArgs::from_arg_matches(&matches).expect("arguments");
     let (file, source) = simhc_cli::ransac::declared_trials(&Line, &args).expect("samples");
     assert!(source.contains("seed 1"), "{source}");
-    let rows = simhc_cli::ransac::estimate_declared(&Line, &solver, &file).expect("runs").rows;
+    let rows = simhc_cli::ransac::estimate_declared(&Line, &solver, &file, false).expect("runs").rows;
     assert_eq!(rows.iter().map(|r| r.outliers).collect::<Vec<_>>(), vec![0.0, 0.4]);
     for r in &rows {
         assert_eq!(r.success_pct, 100.0, "{r:?}");
@@ -314,7 +314,7 @@ fn the_ransac_command_runs_the_same_on_its_dumped_trials() {
         dump,
     ]);
     let (file, _) = declared_trials(&Line, &sampled).expect("samples");
-    let on_seed = estimate_declared(&Line, &solver, &file).expect("runs");
+    let on_seed = estimate_declared(&Line, &solver, &file, false).expect("runs");
     let (read, source) = declared_trials(&Line, &parse(&["line", "--trials-file", dump])).expect("reads");
     assert!(source.contains(dump) && source.contains("seed 8"), "{source}");
     // Bit-identical numbers and the same masks, truths and seeds.
@@ -332,7 +332,7 @@ fn the_ransac_command_runs_the_same_on_its_dumped_trials() {
     }
     assert!(file.trials[6..].iter().any(|t| t.inlier.contains(&false)));
     // The same estimates, masks and successes on the file as on the seed.
-    let on_file = estimate_declared(&Line, &solver, &read).expect("runs");
+    let on_file = estimate_declared(&Line, &solver, &read, false).expect("runs");
     for (k, (a, b)) in on_seed.trials.iter().zip(&on_file.trials).enumerate() {
         let bits = |e: &Option<Vec<f64>>| e.as_ref().map(|x| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
         assert_eq!((bits(&a.estimate), &a.inlier_mask, a.success), (bits(&b.estimate), &b.inlier_mask, b.success), "trial {k}");

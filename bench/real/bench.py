@@ -51,6 +51,8 @@ def parse_args(argv=None):
     ap.add_argument("--grps-scale", type=float, default=2.0, help="known scale applied to frame j's offsets for the second GRPS run")
     ap.add_argument("--problems", default=",".join(PROBLEMS))
     ap.add_argument("--max-corr", type=int, default=None, help="at most this many correspondences per pair")
+    ap.add_argument("--skip-explained", action="store_true",
+                    help="simhc's estimators skip samples the best model explains (RansacOptions::skip_explained)")
     ap.add_argument("--json", default=None, help="write every run and the table as JSON here ('-': stdout)")
     ap.add_argument("--plot", default=None, help="directory for PNG plots of the errors along the trajectory")
     ap.add_argument("--quiet", action="store_true")
@@ -117,13 +119,14 @@ def run_pair(data, refs, i, j, a, rng, seed):
         print(f"pair ({i}, {j}): {len(pair.f1)} common landmarks, skipped (< 7)", file=sys.stderr)
         return runs
     if "relpose" in a.problems:
-        runs.append(("relpose", "simhc", None, solvers.simhc_relpose(pair, data.calib, a.rel_px, a.noise_px, seed, scale)))
+        runs.append(("relpose", "simhc", None, solvers.simhc_relpose(pair, data.calib, a.rel_px, a.noise_px, seed, scale, skip_explained=a.skip_explained)))
         runs.append(("relpose", "poselib", None, solvers.poselib_relpose(pair, data.calib, a.rel_px)))
     if "grps" in a.problems:
         for s in (1.0, a.grps_scale):
-            runs.append((f"grps s={s:g}", "simhc", s, solvers.simhc_relpose(pair, data.calib, a.rel_px, a.noise_px, seed, scale, grps=True, s_true=s)))
+            runs.append((f"grps s={s:g}", "simhc", s, solvers.simhc_relpose(pair, data.calib, a.rel_px, a.noise_px, seed, scale, grps=True, s_true=s,
+                                                                                  skip_explained=a.skip_explained)))
     if "upnp" in a.problems:
-        runs.append(("upnp", "simhc", None, solvers.simhc_upnp(pair, data.calib, a.abs_px, a.noise_px, seed, scale)))
+        runs.append(("upnp", "simhc", None, solvers.simhc_upnp(pair, data.calib, a.abs_px, a.noise_px, seed, scale, skip_explained=a.skip_explained)))
         runs.append(("upnp", "poselib", None, solvers.poselib_upnp(pair, data.calib, a.abs_px)))
     records = []
     for problem, solver, s, res in runs:

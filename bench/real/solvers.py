@@ -57,7 +57,7 @@ def _rig_centre(v):
 # ---------------------------------------------------------------- simhc
 
 
-def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0, min_iterations=1000):
+def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0, min_iterations=1000, skip_explained=False):
     """gen_relpose.estimate (or simhc.estimate_grps with frame j's offsets divided by
     `s_true`, so that the true scale is `s_true`)."""
     f1, v1, f2 = pair.f1, pair.v1, pair.f2
@@ -70,11 +70,12 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
     t0 = time.perf_counter()
     try:
         if grps:
-            pose, info = simhc.estimate_grps(f1, v1n, f2, v2n, threshold=th, seed=seed, min_iterations=min_iterations)
+            pose, info = simhc.estimate_grps(f1, v1n, f2, v2n, threshold=th, seed=seed, min_iterations=min_iterations,
+                                             skip_explained=skip_explained)
             R, t_unit = np.array(pose.R), np.array(pose.t)
         else:
             x, info = gen_relpose.estimate(np.hstack([f1, v1n, f2, v2n]), threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
-                                   min_iterations=min_iterations)
+                                   min_iterations=min_iterations, skip_explained=skip_explained)
             R, t_unit = quaternion_rotation(x["q"]), np.array(x["t"])
     except (simhc.SolveError, gen_relpose.SolveError) as e:
         return _failed((time.perf_counter() - t0) * 1e3, f"{type(e).__name__}: {e}", len(f1))
@@ -85,7 +86,7 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
             "iterations": int(info["iterations"]), "models": int(info["models"])}
 
 
-def simhc_upnp(pair, calib, px, noise_px, seed, scale, min_iterations=1000):
+def simhc_upnp(pair, calib, px, noise_px, seed, scale, min_iterations=1000, skip_explained=False):
     """simhc.estimate_upnp: frame i's triangulated points against frame j's rays."""
     p, f, v = pair.points, pair.f2, pair.v2
     c, L = np.zeros(3), 1.0
@@ -95,7 +96,7 @@ def simhc_upnp(pair, calib, px, noise_px, seed, scale, min_iterations=1000):
     t0 = time.perf_counter()
     try:
         pose, info = simhc.estimate_upnp((p - c) / L, f, (v - c) / L, threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
-                                         min_iterations=min_iterations)
+                                         min_iterations=min_iterations, skip_explained=skip_explained)
     except simhc.SolveError as e:
         return _failed((time.perf_counter() - t0) * 1e3, f"{type(e).__name__}: {e}", len(p))
     ms = (time.perf_counter() - t0) * 1e3

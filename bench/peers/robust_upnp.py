@@ -1,5 +1,5 @@
 """Robust generalized absolute pose, side by side on identical data, both from Python in this
-process: simhc's `estimate_upnp` against PoseLib's `estimate_generalized_absolute_pose`
+process: simhc's `simhc.upnp.estimate` against PoseLib's `estimate_generalized_absolute_pose`
 (defaults but the threshold).
 
     python3 bench/peers/robust_upnp.py --trials 100 --seed 1 --outliers 0.2 [--noise-px 1]
@@ -70,7 +70,7 @@ def run_simhc(tr, threshold, noise_px, seed):
     v = tr["cams"][tr["cam"]]
     t0 = time.perf_counter()
     try:
-        pose, info = simhc.estimate_upnp(tr["p"], tr["f"], v, threshold=threshold, noise=noise_px, seed=seed)
+        pose, info = simhc.upnp.estimate(tr["p"], tr["f"], v, threshold=threshold, noise=noise_px, seed=seed)
     except simhc.SolveError:
         return None, None, np.zeros(len(tr["p"]), bool), (time.perf_counter() - t0) * 1e6
     return pose.R, pose.t, info["inlier_mask"], (time.perf_counter() - t0) * 1e6
@@ -141,17 +141,17 @@ def main():
     trials = [scene(rng, a.outliers, sigma) for _ in range(a.trials)]
     threshold = 3 * max(sigma, 1e-6)
     run_simhc(trials[0], threshold, a.noise_px, a.seed)  # warm up: the solver is built once
-    table = {"simhc.estimate_upnp": [], "poselib.estimate_generalized_absolute_pose": []}
+    table = {"simhc.upnp.estimate": [], "poselib.estimate_generalized_absolute_pose": []}
     for k, tr in enumerate(trials):
         truth = tr["inlier"]
         for name, (R, t, mask, micros) in (
-            ("simhc.estimate_upnp", run_simhc(tr, threshold, a.noise_px, a.seed + k)),
+            ("simhc.upnp.estimate", run_simhc(tr, threshold, a.noise_px, a.seed + k)),
             ("poselib.estimate_generalized_absolute_pose", run_poselib(tr, threshold)[:4]),
         ):
             er, et = errors(R, t, tr["R"], tr["t"]) if R is not None else (math.inf, math.inf)
             table[name].append((er < 2 and et < 5, np.sum(mask & truth) / truth.sum(), micros, er, et))
     medians = print_table(table)
-    s, p = medians["simhc.estimate_upnp"], medians["poselib.estimate_generalized_absolute_pose"]
+    s, p = medians["simhc.upnp.estimate"], medians["poselib.estimate_generalized_absolute_pose"]
     print(f"time per call, simhc / PoseLib (median): {s / p:.2f}")
 
 

@@ -9,9 +9,9 @@
 positions in the 135-frame list, it builds one set of correspondences (`correspondences.py`,
 cameras drawn with the seed) and runs:
 - relpose: gen_relpose.estimate (the example problem's module) vs PoseLib estimate_generalized_relative_pose;
-- grps: simhc.estimate_grps at true scale 1 and at `--grps-scale` (frame j's camera offsets
+- grps: simhc.grps.estimate at true scale 1 and at `--grps-scale` (frame j's camera offsets
   divided by it); no PoseLib peer (PoseLib has no generalized relative pose and scale);
-- upnp: simhc.estimate_upnp vs PoseLib estimate_generalized_absolute_pose.
+- upnp: simhc.upnp.estimate vs PoseLib estimate_generalized_absolute_pose.
 Errors against the GTSAM stereo BA (`kitti.py`, cached) and the shipped VO poses. Success:
 E_R < 1 deg and (translation direction < 5 deg or E_t < 5 % of the motion). Times: one call's
 wall time from Python, median. `--scale`: simhc's input similarity (`solvers.py`): `none`

@@ -2,7 +2,7 @@
 
     python bench/real/refine_check.py [--pairs 40] [--seed 1] [--abs-px 3]
 
-For random frame pairs (gaps 1, 3, 5): simhc.estimate_upnp (depth-scaled input, as bench.py)
+For random frame pairs (gaps 1, 3, 5): simhc.upnp.estimate (depth-scaled input, as bench.py)
 and PoseLib estimate_generalized_absolute_pose, then PoseLib's own refinement
 (`refine_generalized_absolute_pose`, its default Cauchy loss of 1 px) started from simhc's pose
 on simhc's inliers only. If the refined simhc pose matches PoseLib's errors, the gap is simhc's

@@ -6,8 +6,8 @@ Every runner returns a dict {ok, R, t, s, mask, ms, error} in one convention per
 
 Thresholds: one threshold `px` in pixels for both sides. simhc's estimators take an angle in
 radians (`gen_relpose.estimate`, the example problem's module: the Sampson error of the coplanarity as an angle, both bearings
-noisy; `estimate_grps`: the sine of the angle between a bearing and its triangulated point, both
-views; `estimate_upnp`: the angle between a bearing and the direction to its point), so simhc
+noisy; `simhc.grps.estimate`: the sine of the angle between a bearing and its triangulated point, both
+views; `simhc.upnp.estimate`: the angle between a bearing and the direction to its point), so simhc
 gets `px / fx`; PoseLib gets pixels with KITTI's real pinhole cameras (`max_epipolar_error`,
 a Sampson error in pixels; `max_reproj_error`), which it divides by the focal length itself.
 Iteration bounds: PoseLib's defaults on both sides (min 1000, max 100000, confidence 0.9999).
@@ -58,7 +58,7 @@ def _rig_centre(v):
 
 
 def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0, min_iterations=1000, skip_explained=False):
-    """gen_relpose.estimate (or simhc.estimate_grps with frame j's offsets divided by
+    """gen_relpose.estimate (or simhc.grps.estimate with frame j's offsets divided by
     `s_true`, so that the true scale is `s_true`)."""
     f1, v1, f2 = pair.f1, pair.v1, pair.f2
     v2 = pair.v2 / s_true
@@ -70,7 +70,7 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
     t0 = time.perf_counter()
     try:
         if grps:
-            pose, info = simhc.estimate_grps(f1, v1n, f2, v2n, threshold=th, seed=seed, min_iterations=min_iterations,
+            pose, info = simhc.grps.estimate(f1, v1n, f2, v2n, threshold=th, seed=seed, min_iterations=min_iterations,
                                              skip_explained=skip_explained)
             R, t_unit = np.array(pose.R), np.array(pose.t)
         else:
@@ -87,7 +87,7 @@ def simhc_relpose(pair, calib, px, noise_px, seed, scale, grps=False, s_true=1.0
 
 
 def simhc_upnp(pair, calib, px, noise_px, seed, scale, min_iterations=1000, skip_explained=False):
-    """simhc.estimate_upnp: frame i's triangulated points against frame j's rays."""
+    """simhc.upnp.estimate: frame i's triangulated points against frame j's rays."""
     p, f, v = pair.points, pair.f2, pair.v2
     c, L = np.zeros(3), 1.0
     if scale is not None:
@@ -95,7 +95,7 @@ def simhc_upnp(pair, calib, px, noise_px, seed, scale, min_iterations=1000, skip
     th = px / calib.fx
     t0 = time.perf_counter()
     try:
-        pose, info = simhc.estimate_upnp((p - c) / L, f, (v - c) / L, threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
+        pose, info = simhc.upnp.estimate((p - c) / L, f, (v - c) / L, threshold=th, noise=noise_px * SIMHC_FOCAL / calib.fx, seed=seed,
                                          min_iterations=min_iterations, skip_explained=skip_explained)
     except simhc.SolveError as e:
         return _failed((time.perf_counter() - t0) * 1e3, f"{type(e).__name__}: {e}", len(p))

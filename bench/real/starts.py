@@ -72,10 +72,10 @@ def synthetic(n, seed):
         vp = np.array([tr["cams2"][m[1]] for m in tr["matches"]])
         _, info = gen_relpose.estimate(np.hstack([f, v, fp, vp]), threshold=2 * sigma, noise=1.0, seed=k)
         out["relpose"].append(info["models"] / info["iterations"])
-        _, info = simhc.estimate_grps(f, v, fp, vp, threshold=2 * sigma, seed=k)
+        _, info = simhc.grps.estimate(f, v, fp, vp, threshold=2 * sigma, seed=k)
         out["grps"].append(info["models"] / info["iterations"])
         tu = robust_upnp.scene(rng, 0.0, sigma)
-        _, info = simhc.estimate_upnp(tu["p"], tu["f"], tu["cams"][tu["cam"]], threshold=3 * sigma, seed=k)
+        _, info = simhc.upnp.estimate(tu["p"], tu["f"], tu["cams"][tu["cam"]], threshold=3 * sigma, seed=k)
         out["upnp"].append(info["models"] / info["iterations"])
     return {k: float(np.median(v)) for k, v in out.items()}
 

@@ -4,16 +4,24 @@ A solve predicts a rough solution with a small learned network, builds a start p
 solution solves exactly, and tracks one homotopy path to your data; every answer is validated
 on all correspondences, and a solve without a validated answer raises a ``SolveError``.
 
-- ``upnp(points, bearings, origins=None)``: generalized absolute pose (UPnP), N >= 3.
-- ``grps(f, v, fp, vp)``: generalized relative pose and scale, N >= 8.
-- ``estimate_upnp(points, bearings, origins=None, threshold=...)``: UPnP, robust (LO-RANSAC),
-  N >= 4.
-- ``estimate_grps(f, v, fp, vp, threshold=...)``: GRPS, robust (LO-RANSAC), N >= 7.
+The built-in problems are registered solvers, each a ``ProblemSolver`` (the one class of every
+problem; ``solver.about`` says what it solves, its conventions and units):
+
+- ``upnp``: generalized absolute pose. ``simhc.upnp(points, bearings, origins=None)``, (N, 3)
+  arrays, N >= 3, returns a ``Solution`` with ``R``, ``t``, ``q``, ``certified``;
+  ``simhc.upnp.estimate(points, bearings, origins, threshold=3 / 800)`` is robust (LO-RANSAC),
+  N >= 4 with outliers, and returns ``(solution, info)``.
+- ``grps``: generalized relative pose and scale. ``simhc.grps(f, v, fp, vp)``, N >= 8, adds
+  ``s``; ``simhc.grps.estimate(f, v, fp, vp, threshold=0.01)``, N >= 7 with outliers.
+
+Arrays are given in ``row_fields`` order or by name (``simhc.upnp(points=p, bearings=f)``), or
+as one (N, per_row) array of rows.
 
 A problem of your own (and the example, generalized relative pose with known scale) is a module
-of its own, made by one line of its crate, ``simhc_pymodule::python_module!(gen_relpose, ...)``: ``import
-gen_relpose`` (``pip install ./examples/generalized-relative-pose/python``), with its own ``gen_relpose.InputError``
-and ``gen_relpose.SolveError``.
+of its own with the same class, made by one line of its crate,
+``simhc_pymodule::python_module!(gen_relpose, ...)``: ``import gen_relpose``
+(``pip install ./examples/generalized-relative-pose/python``), with its own
+``gen_relpose.InputError`` and ``gen_relpose.SolveError``.
 
 Exceptions: ``InputError`` (a ``ValueError`` naming the array or correspondence and field),
 ``SolveError`` (a ``RuntimeError``) with ``NotValidatedError`` and ``NoSolutionError``.
@@ -23,10 +31,9 @@ from ._simhc import (
     InputError,
     NoSolutionError,
     NotValidatedError,
-    Pose,
+    ProblemSolver,
+    Solution,
     SolveError,
-    estimate_grps,
-    estimate_upnp,
     grps,
     upnp,
 )
@@ -35,10 +42,9 @@ __all__ = [
     "InputError",
     "NoSolutionError",
     "NotValidatedError",
-    "Pose",
+    "ProblemSolver",
+    "Solution",
     "SolveError",
-    "estimate_grps",
-    "estimate_upnp",
     "grps",
     "upnp",
 ]

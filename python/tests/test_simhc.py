@@ -59,7 +59,7 @@ def test_upnp_returns_the_true_pose(seed):
     pose = simhc.upnp(p, f, v)
     assert rotation_error_deg(pose.R, r) < 1e-4, f"seed {seed}"
     assert np.linalg.norm(pose.t - t) < 1e-5, f"seed {seed}"
-    assert pose.s is None
+    assert "s" not in pose and pose["t"] is pose.t
     # Noise-free data: the returned rotation is certified next to an exact root.
     assert pose.certified is not None and 0 <= pose.certified < 1e-6, f"seed {seed}: {pose.certified}"
 
@@ -88,7 +88,7 @@ def test_estimate_upnp_finds_the_inliers_among_outliers(seed):
     outliers = rng.choice(80, 32, replace=False)  # 40 %
     p[outliers] += rng.uniform(-3, 3, (32, 3))  # wrong matches: other world points
     f = unit(f + rng.normal(scale=0.5 / 800, size=f.shape))  # about half a pixel
-    pose, info = simhc.estimate_upnp(p, f, v, seed=seed)
+    pose, info = simhc.upnp.estimate(p, f, v, seed=seed)
     truth = np.ones(80, bool)
     truth[outliers] = False
     kept, wrong = recall_and_wrong(info, truth)
@@ -103,8 +103,8 @@ def test_skip_explained_solves_fewer_samples_and_finds_the_same_inliers():
     p, f, v, r, t = upnp_scene(21, n=80)
     outliers = rng.choice(80, 16, replace=False)  # 20 %
     p[outliers] += rng.uniform(-3, 3, (16, 3))
-    plain_pose, plain = simhc.estimate_upnp(p, f, v, seed=3)
-    pose, info = simhc.estimate_upnp(p, f, v, seed=3, skip_explained=True)
+    plain_pose, plain = simhc.upnp.estimate(p, f, v, seed=3)
+    pose, info = simhc.upnp.estimate(p, f, v, seed=3, skip_explained=True)
     assert info["iterations"] == plain["iterations"]  # skipped samples still count
     assert info["models"] < plain["models"], (info["models"], plain["models"])
     assert (info["inlier_mask"] == plain["inlier_mask"]).all()
@@ -117,7 +117,7 @@ def test_estimate_grps_finds_the_inliers_among_outliers():
     f, v, fp, vp, r, t = relative_scene(seed, 60, scale=1.7)
     outliers = rng.choice(60, 18, replace=False)  # 30 %
     fp[outliers] = unit(rng.normal(size=(18, 3)))
-    pose, info = simhc.estimate_grps(f, v, fp, vp, seed=seed)
+    pose, info = simhc.grps.estimate(f, v, fp, vp, seed=seed)
     truth = np.ones(60, bool)
     truth[outliers] = False
     kept, wrong = recall_and_wrong(info, truth)
@@ -131,17 +131,17 @@ def test_the_estimators_name_a_bad_correspondence():
     p, f, v, _, _ = upnp_scene(3, n=12)
     f[7, 2] = np.nan
     with pytest.raises(simhc.InputError, match=r"correspondence 7, field `bearings`"):
-        simhc.estimate_upnp(p, f, v)
+        simhc.upnp.estimate(p, f, v)
     f[7, 2] = 1.0
     with pytest.raises(simhc.InputError, match="too few correspondences: got 3, need at least 4"):
-        simhc.estimate_upnp(p[:3], f[:3], v[:3])
+        simhc.upnp.estimate(p[:3], f[:3], v[:3])
     with pytest.raises(simhc.InputError, match="noise"):
-        simhc.estimate_upnp(p, f, v, noise=-1.0)
+        simhc.upnp.estimate(p, f, v, noise=-1.0)
     f2, v2, fp2, vp2, _, _ = relative_scene(4, 9)
     with pytest.raises(simhc.InputError, match="too few correspondences: got 6, need at least 7"):
-        simhc.estimate_grps(f2[:6], v2[:6], fp2[:6], vp2[:6])
+        simhc.grps.estimate(f2[:6], v2[:6], fp2[:6], vp2[:6])
     with pytest.raises(simhc.InputError, match="confidence"):
-        simhc.estimate_grps(f2, v2, fp2, vp2, confidence=1.5)
+        simhc.grps.estimate(f2, v2, fp2, vp2, confidence=1.5)
 
 
 def test_bad_input_raises_input_error_that_says_where():
@@ -184,8 +184,8 @@ def test_empty_arrays_raise_and_do_not_crash():
     for call in (
         lambda: simhc.upnp(empty, empty, empty),
         lambda: simhc.grps(empty, empty, empty, empty),
-        lambda: simhc.estimate_upnp(empty, empty, empty),
-        lambda: simhc.estimate_grps(empty, empty, empty, empty),
+        lambda: simhc.upnp.estimate(empty, empty, empty),
+        lambda: simhc.grps.estimate(empty, empty, empty, empty),
         lambda: simhc.upnp([], [], []),
     ):
         with pytest.raises(simhc.InputError):
@@ -193,7 +193,49 @@ def test_empty_arrays_raise_and_do_not_crash():
 
 
 def test_help_says_what_the_arrays_are():
-    assert "(N, 3)" in simhc.upnp.__doc__ and "origins" in simhc.upnp.__doc__
-    for estimate in (simhc.estimate_upnp, simhc.estimate_grps):
-        assert "inlier_mask" in estimate.__doc__ and "(N, 3)" in estimate.__doc__
-        assert "threshold" in estimate.__text_signature__
+    assert "(N, 3)" in simhc.upnp.about and "origins" in simhc.upnp.about
+    for solver in (simhc.upnp, simhc.grps):
+        assert "inlier_mask" in solver.estimate.__doc__ and "(N, 3)" in solver.about
+        assert "threshold" in solver.estimate.__text_signature__
+
+
+def test_the_built_ins_are_the_one_class_of_every_problem():
+    for solver, name in ((simhc.upnp, "upnp"), (simhc.grps, "grps")):
+        assert type(solver) is simhc.ProblemSolver and solver.name == name and solver.more_rows
+        assert type(solver).__module__ == "simhc"
+    assert simhc.upnp.row_fields == [("points", [3]), ("bearings", [3]), ("origins", [3])]
+    assert simhc.grps.solution_fields == [("R", [3, 3]), ("t", [3]), ("s", []), ("q", [4])]
+    assert repr(simhc.upnp) == "<simhc.ProblemSolver `upnp`: 3+ rows of [points, bearings, origins] -> [R, t, q]>"
+
+
+def test_fields_by_name_by_position_or_as_rows_give_the_same_pose():
+    p, f, v, r, _ = upnp_scene(5)
+    by_position = simhc.upnp(p, f, v)
+    by_name = simhc.upnp.solve(bearings=f, points=p, origins=v)
+    as_rows = simhc.upnp(np.hstack([p, f, v]))
+    for pose in (by_name, as_rows):
+        assert np.array_equal(pose.R, by_position.R) and np.array_equal(pose.t, by_position.t)
+    assert rotation_error_deg(by_position.R, r) < 1e-4
+    assert sorted(by_position.keys()) == ["R", "certified", "q", "t"] and dict(by_position.items())["t"] is by_position.t
+    # `origins` is optional: one central camera at the rig origin.
+    pc, _, _, rc, _ = upnp_scene(6)
+    tc = np.array([0.1, -0.2, 0.3])
+    central = simhc.upnp(points=pc, bearings=unit(pc @ rc.T + tc))
+    assert rotation_error_deg(central.R, rc) < 1e-4 and np.linalg.norm(central.t - tc) < 1e-5
+    with pytest.raises(simhc.InputError, match="`bearing`: not a field of `upnp`'s rows"):
+        simhc.upnp(points=p, bearing=f)
+    with pytest.raises(simhc.InputError, match="`points`: given twice"):
+        simhc.upnp(p, f, points=p)
+    with pytest.raises(simhc.InputError, match="`bearings`: missing"):
+        simhc.upnp(p)
+    with pytest.raises(AttributeError, match="no field `s`"):
+        by_position.s
+
+
+def test_batch_of_a_built_in_gives_the_single_answers():
+    scenes = [upnp_scene(300 + s) for s in range(4)]
+    rows = np.stack([np.hstack(sc[:3]) for sc in scenes])
+    x, ok = simhc.upnp.solve_batch(rows)
+    assert x.shape == (4, 16) and ok.all()
+    for i, sc in enumerate(scenes):
+        assert np.allclose(x[i, :9].reshape(3, 3), simhc.upnp(*sc[:3]).R, atol=1e-12)

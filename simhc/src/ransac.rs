@@ -270,6 +270,7 @@ pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOp
     let mut iterations = 0;
     let mut scored = 0;
     let mut lo_inliers = Vec::new();
+    let mut refined_inliers = Vec::new();
     let mut refinements = 0;
     // Whether each datum is an inlier of the best model so far (module docs: past the
     // confidence, its samples are not solved).
@@ -292,20 +293,27 @@ pub fn ransac<E: Estimator>(estimator: &E, data: &[E::Datum], options: &RansacOp
             };
             if better {
                 let (mut h, mut count, mut sum) = (h, count, sum);
+                // `lo_inliers` holds the inliers of `h` when `known`.
+                let mut known = false;
                 if options.local_optimization && count >= m {
                     score(estimator, &h, data, options.threshold, Some(&mut lo_inliers));
+                    known = true;
                     if let Some(r) = estimator.refine(&h, data, &lo_inliers) {
-                        let (c, s) = score(estimator, &r, data, options.threshold, None);
+                        let (c, s) = score(estimator, &r, data, options.threshold, Some(&mut refined_inliers));
                         if s < sum || (s == sum && c > count) {
                             (h, count, sum) = (r, c, s);
+                            std::mem::swap(&mut lo_inliers, &mut refined_inliers);
                             refinements += 1;
                         }
                     }
-                    if skip {
+                }
+                // The mask follows every new best, with or without its local optimization.
+                if skip {
+                    if !known {
                         score(estimator, &h, data, options.threshold, Some(&mut lo_inliers));
-                        best_inliers.iter_mut().for_each(|b| *b = false);
-                        lo_inliers.iter().for_each(|&i| best_inliers[i] = true);
                     }
+                    best_inliers.iter_mut().for_each(|b| *b = false);
+                    lo_inliers.iter().for_each(|&i| best_inliers[i] = true);
                 }
                 best = Some((h, count, sum));
                 needed = required_iterations_exact(count, n, m, options.confidence);

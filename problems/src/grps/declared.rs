@@ -2,7 +2,7 @@
 //! [`simhc::solver::Scenes`] for the commands), on 7 and on 8 correspondences
 //! ([`Grps7Problem`], [`Grps8Problem`]; [`GrpsSolvers`] dispatches by count), assembled by the
 //! runtime's generic [`Solver`]: the one GRPS solver behind `simhc solve grps`, `simhc bench
-//! grps|grps7|grps8`, Python `simhc.grps` / `simhc.estimate_grps` and the
+//! grps|grps7|grps8`, Python `simhc.grps` / `simhc.grps.estimate` and the
 //! trainer's evaluation.
 //!
 //! - tracked and data instance [`Grps8`] (or [`Grps7`]): measured, one path on all 8 correspondences

@@ -738,7 +738,7 @@ pub fn ransac_scene(ratio: f64, rng: &mut ChaCha8Rng) -> Result<(GrpsScene, Vec<
 }
 
 fn ransac_bench(seed: u64, args: &GrpsArgs, progress: bool) -> Result<Vec<RansacRow>, String> {
-    // A sample's pose is validated on the sample as the estimator of `simhc.estimate_grps` does.
+    // A sample's pose is validated on the sample as the estimator of `simhc.grps.estimate` does.
     let solvers = args.solvers(RANSAC_NOISE_PX)?;
     let mut rows = Vec::new();
     let bar = crate::app::progress_bar((OUTLIER_RATIOS.len() * args.ransac_trials) as u64, progress);

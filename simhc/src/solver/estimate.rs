@@ -241,11 +241,20 @@ where
     S: Correspondences<NX, NF, NP, NC, D>,
 {
     let problem = solver.problem();
-    if problem.sample_candidates() <= 1 && problem.sample_attempts() <= 1 {
+    if first_end_point_only(problem) {
         Cow::Borrowed(sample_schedule(problem.refines()))
     } else {
         Cow::Owned(sample_attempts(solver.schedule(), problem.sample_attempts()))
     }
+}
+
+/// Whether a sample of `problem` runs one attempt and keeps its first validated end point: the
+/// shipped schedule's first, through the allocation-free pipeline.
+fn first_end_point_only<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, D: ?Sized>(problem: &S) -> bool
+where
+    S: Correspondences<NX, NF, NP, NC, D>,
+{
+    problem.sample_candidates() <= 1 && problem.sample_attempts() <= 1
 }
 
 /// The attempts a RANSAC sample runs when the problem asks for more than the first
@@ -332,7 +341,7 @@ where
     fn solve_sample_with(&self, input: S::Input<'_>, indices: &[usize], attempts: &[SolverAttempt], out: &mut Vec<S::Model>) {
         let problem = self.problem();
         problem.with_instance(input, indices, |sample| {
-            if problem.sample_candidates() <= 1 && problem.sample_attempts() <= 1 {
+            if first_end_point_only(problem) {
                 if let Ok(s) = self.run_pipeline(sample, attempts, false, None) {
                     out.extend(problem.model(&s.x, sample));
                 }

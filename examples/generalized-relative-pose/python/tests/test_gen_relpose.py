@@ -51,10 +51,12 @@ def rows_of(f, v, fp, vp):
 def test_solve_returns_the_true_pose_with_its_certificate():
     f, v, fp, vp, r, t = relative_scene(7, 7)
     assert gen_relpose.solver.name and gen_relpose.solver.rows == 7
-    assert gen_relpose.solver.row_fields == [("f", 3), ("v", 3), ("fp", 3), ("vp", 3)]
-    assert gen_relpose.solver.unknowns == [("q", 4), ("t", 3)]
+    assert gen_relpose.solver.row_fields == [("f", [3]), ("v", [3]), ("fp", [3]), ("vp", [3])]
+    assert gen_relpose.solver.solution_fields == [("q", [4]), ("t", [3])]
     assert gen_relpose.solver.global_fields == []
     x = gen_relpose.solve(rows_of(f, v, fp, vp))
+    by_name = gen_relpose.solve(f=f, v=v, fp=fp, vp=vp)
+    assert np.array_equal(by_name.q, x["q"]) and np.array_equal(by_name["t"], x.t)
     assert rotation_error_deg(quaternion_rotation(x["q"]), r) < 1e-4
     assert np.linalg.norm(x["t"] - t) < 1e-6 * np.linalg.norm(t)
     # Noise-free data: the solution is certified next to an exact root.
@@ -116,11 +118,11 @@ def test_bad_input_raises_the_modules_input_error_that_says_where():
     f, v, fp, vp, _, _ = relative_scene(4, 7)
     rows = rows_of(f, v, fp, vp)
     rows[4, 9] = np.inf
-    with pytest.raises(gen_relpose.InputError, match=r"row 4, field `vp`"):
+    with pytest.raises(gen_relpose.InputError, match=r"correspondence 4, field `vp`"):
         gen_relpose.solve(rows)
     rows[4, 9] = 0.0
     rows[2, 9] = np.nan
-    with pytest.raises(gen_relpose.InputError, match=r"row 2, field `vp`"):
+    with pytest.raises(gen_relpose.InputError, match=r"correspondence 2, field `vp`"):
         gen_relpose.solve(rows)
     rows[2, 9] = 0.0
     with pytest.raises(gen_relpose.InputError, match="exactly 7"):
@@ -174,7 +176,7 @@ def test_errors_and_help_name_the_module_not_simhc():
     # What a traceback prints: `gen_relpose.InputError: ...`.
     assert repr(raised.type) == "<class 'gen_relpose.InputError'>"
     assert type(gen_relpose.solver).__module__ == "gen_relpose" and type(gen_relpose.solver) is gen_relpose.ProblemSolver
-    assert repr(gen_relpose.solver).startswith("<gen_relpose.solver ")
+    assert repr(gen_relpose.solver).startswith("<gen_relpose.ProblemSolver ")
     doc = gen_relpose.__doc__
     for text in ("gen_relpose.solve(", "gen_relpose.estimate(", "gen_relpose.solve_batch(", "gen_relpose.InputError", "gen_relpose.SolveError", "[f (3), v (3), fp (3), vp (3)]"):
         assert text in doc, text

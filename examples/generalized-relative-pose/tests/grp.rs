@@ -100,6 +100,13 @@ fn a_start_system_read_at_run_time_is_the_fallback() {
         assert!(none.run_pipeline(&p, &[], true, None).is_err(), "trial {trial}: the built-in start system was used");
     }
     assert!(solved >= 5, "{solved} of 6 solved by the fallback");
+    // A plan without the fallback keeps the solver's start system unused.
+    use simhc::solver::{InstanceProblem, Plan};
+    let plan = Plan { fallback: false, ..full.problem().plan() };
+    let without = full.with_plan(plan).expect("the problem's plan fits");
+    assert!(!without.has_fallback());
+    let (p, _) = scene(&mut rng, 0.0);
+    assert!(without.run_pipeline(&p, &[], true, None).is_err(), "a plan without the fallback ran it");
 }
 
 #[test]

@@ -36,7 +36,7 @@ use nalgebra::SVector;
 use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::pipeline::{PipelineOptions, StartError, StartProvider, Validator, Verdict};
 use simhc::regressor::{FoldedNetwork, RegressorError};
-use simhc::solver::{DegenerateInput, FirstRowsError, InstanceProblem, InstanceSolver, Refinement};
+use simhc::solver::{DegenerateInput, FirstRowsError, InstanceProblem, InstanceSolver, Plan, Refinement};
 use simhc::tracker::TrackerOptions;
 use simhc::SimulatorError;
 use std::sync::Arc;
@@ -162,20 +162,15 @@ impl InstanceProblem<4, 5, 66, 35, [UpnpCorrespondence]> for UpnpProblem {
     fn make_validator(&self, noise: f64) -> UpnpPoseValidator {
         UpnpPoseValidator { max_angle: self.max_angle.max(8.0 * noise), max_behind: self.max_behind }
     }
-    fn solve_options(&self) -> PipelineOptions {
-        // The paper's single-path tracker, the first validated end point.
-        PipelineOptions { tracker: TrackerOptions::single_path(), extra_attempts: 0, ..PipelineOptions::default() }
-    }
-    fn other_starts_first(&self) -> bool {
-        // The linear start costs about 3 us against the network's 10 us and is exact without
-        // noise.
-        true
-    }
-    fn extra_starts(&self) -> Vec<Box<dyn StartProvider<[UpnpCorrespondence], 4> + Send + Sync>> {
-        if self.linear_start {
-            vec![Box::new(LinearStart)]
-        } else {
-            Vec::new()
+    fn plan(&self) -> Plan<[UpnpCorrespondence], 4, 5, 66> {
+        Plan {
+            // The paper's single-path tracker, the first validated end point.
+            options: PipelineOptions { tracker: TrackerOptions::single_path(), extra_attempts: 0, ..PipelineOptions::default() },
+            other_starts: if self.linear_start { vec![Box::new(LinearStart)] } else { Vec::new() },
+            // The linear start costs about 3 us against the network's 10 us and is exact
+            // without noise.
+            other_starts_first: true,
+            ..Plan::default()
         }
     }
     fn check_data(&self, corrs: &[UpnpCorrespondence]) -> Result<(), FirstRowsError> {

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::PipelineError;
 use simhc::pipeline::{Method, StartError, StartProvider, StartSimulator};
 use simhc::solver::{
-    DeclaredProblem, OtherSimulator, OtherStart, Scenes, Solver, SolverAttempt, SolverError, SolverOrigin, StartId, MAX_OTHERS,
+    DeclaredProblem, OtherSimulator, OtherStart, Plan, Scenes, Solver, SolverAttempt, SolverError, SolverOrigin, StartId, MAX_OTHERS,
     MAX_RESTARTS,
 };
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
@@ -367,4 +367,56 @@ fn the_problems_solve_settings_reach_every_path() {
         }
     }
     assert!(limited >= 4, "{limited} of 5 paths stopped at the one-step limit");
+}
+
+/// A start at a fixed slope, for a plan the caller gives.
+struct At(f64);
+
+impl StartProvider<SVector<f64, 6>, 1> for At {
+    fn name(&self) -> &'static str {
+        "fixed slope"
+    }
+    fn start(&self, _: &SVector<f64, 6>) -> Result<SVector<f64, 1>, StartError> {
+        Ok(SVector::from([self.0]))
+    }
+}
+
+/// A plan given to the solver replaces the problem's: its other start is scheduled and solves,
+/// its options reach every path, and a plan that asks for more than a solve holds is an error.
+#[test]
+fn a_callers_plan_replaces_the_problems() {
+    use rand::SeedableRng;
+    let dir = std::env::temp_dir().join(format!("simhc-planned-{}", std::process::id()));
+    let weights = std::fs::read(trained_weights(&dir)).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let line = Solver::with_weights(Line, &weights, 0.0).unwrap();
+    assert!(line.plan().other_starts.is_empty() && !line.schedule().iter().any(|a| a.start == StartId::Other(0)));
+    let mut options = simhc::pipeline::PipelineOptions::default();
+    options.tracker.max_steps = 1;
+    let plan = Plan { other_starts: vec![Box::new(At(0.5))], options, fallback: false, ..Plan::default() };
+    let planned = line.with_plan(plan).expect("the plan fits");
+    assert!(planned.schedule().iter().any(|a| a.start == StartId::Other(0)), "{:?}", planned.schedule());
+    assert!(!planned.has_fallback() && !planned.plan().fallback);
+    let (from_other, path) =
+        (SolverAttempt::new(StartId::Other(0), Method::GaussNewton), [SolverAttempt::new(StartId::LEARNED, Method::SimulatorHc)]);
+    let seed = 14;
+    println!("seed {seed}");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut limited = 0;
+    for _ in 0..5 {
+        let (p, truth) = Line.scene(&mut rng, 0.0);
+        let solved = planned.run_pipeline(&p, &[from_other], false, None).expect("Gauss-Newton from the plan's start solves the line");
+        assert!((solved.x[0] - truth[0]).abs() < 1e-9, "slope {} for {}", solved.x[0], truth[0]);
+        assert_eq!(solved.origin, SolverOrigin::Attempt(from_other));
+        if let Err(PipelineError::NoEndPoint { last: Some(e), .. }) = planned.run_pipeline(&p, &path, false, None) {
+            assert!(e.to_string().to_lowercase().contains("step"), "{e}");
+            limited += 1;
+        }
+    }
+    assert!(limited >= 4, "{limited} of 5 paths stopped at the plan's one-step limit");
+    let too_many = Plan { restarts: MAX_RESTARTS + 1, ..Plan::default() };
+    match Solver::with_weights(Line, &weights, 0.0).unwrap().with_plan(too_many) {
+        Err(e) => assert_eq!(e, SolverError::TooMany { problem: "line", what: "restarts", count: MAX_RESTARTS + 1, most: MAX_RESTARTS }),
+        Ok(_) => panic!("a plan with more restarts than a solve holds"),
+    }
 }

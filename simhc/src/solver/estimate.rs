@@ -242,7 +242,7 @@ where
 {
     let problem = solver.problem();
     if first_end_point_only(problem) {
-        Cow::Borrowed(sample_schedule(problem.refines()))
+        Cow::Borrowed(sample_schedule(solver.plan().refine))
     } else {
         Cow::Owned(sample_attempts(solver.schedule(), problem.sample_attempts()))
     }

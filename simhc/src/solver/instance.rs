@@ -14,12 +14,12 @@
 
 use super::hypotheses::{LearnedHypotheses, Ranked, RankedStarts};
 use super::parts::{Canon, FirstRows, FirstRowsError};
+use super::plan::Plan;
 use super::problem::{CanonicalFrame, DeclaredProblem, Refinement};
 use super::rows::{ProblemOutputs, ProblemRows, SolverStart};
 use crate::pipeline::learned::NonFiniteParameter;
 use crate::pipeline::{
-    Canonicalize, Fallback, Generic, LearnedStart, PipelineOptions, StartError, StartProvider, StartSimulator, TargetParameters, Validator,
-    MAX_HYPOTHESES,
+    Canonicalize, Fallback, Generic, LearnedStart, StartError, StartProvider, StartSimulator, TargetParameters, Validator, MAX_HYPOTHESES,
 };
 use crate::regressor::{FoldedNetwork, RegressorError};
 use crate::{CoefficientForm, ParamDerivative, ProblemLayout, SimulatorError};
@@ -50,14 +50,11 @@ pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, con
 
     /// The problem's name, for errors.
     fn name(&self) -> &'static str;
-    /// Whether [`InstanceProblem::refine_start`] refines (the shipped schedule then starts
-    /// with the refined learned start, [`super::shipped_schedule`]).
-    fn refines(&self) -> bool {
-        false
-    }
-    /// How many restarts [`InstanceProblem::restart_start`] has.
-    fn restarts(&self) -> usize {
-        0
+    /// What a solver of the problem tries by default ([`Plan`]): the learned start alone,
+    /// then the fallback, unless the problem says more (refinement, restarts, other starts and
+    /// simulators, options). A caller may change it ([`super::InstanceSolver::with_plan`]).
+    fn plan(&self) -> Plan<D, NX, NF, NP> {
+        Plan::default()
     }
     /// The weights the problem ships, if any.
     fn shipped_weights(&self) -> Option<&'static [u8]> {
@@ -70,24 +67,6 @@ pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, con
         Self: Sized;
     /// The validator of solutions, for data with noise of size `noise`.
     fn make_validator(&self, noise: f64) -> Self::Validator;
-    /// Tracker, Gauss-Newton and polish settings of a solve.
-    fn solve_options(&self) -> PipelineOptions {
-        PipelineOptions::default()
-    }
-    /// Whether the other starts' attempts come before the learned start's
-    /// ([`super::schedule::other_starts_first`]). Default `false`.
-    fn other_starts_first(&self) -> bool {
-        false
-    }
-    /// Start providers beside the learned start (at most [`super::MAX_OTHERS`]).
-    fn extra_starts(&self) -> Vec<Box<dyn StartProvider<D, NX> + Send + Sync>> {
-        Vec::new()
-    }
-    /// Online simulators beside [`InstanceProblem::simulate_start`] (at most
-    /// [`super::MAX_OTHERS`]).
-    fn extra_simulators(&self) -> Vec<Box<dyn StartSimulator<D, NX, NF, NP> + Send + Sync>> {
-        Vec::new()
-    }
     /// Checks the user's data before anything else: which correspondence and field is not
     /// finite, too few correspondences, degenerate geometry.
     fn check_data(&self, data: &D) -> Result<(), FirstRowsError>;
@@ -100,11 +79,11 @@ pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn canonical(&self, _data: &D) -> Option<(Self::Canonical, CanonicalFrame<NX>)> {
         None
     }
-    /// The learned start refined on all the data.
+    /// The learned start refined on all the data (tried when [`Plan::refine`]).
     fn refine_start(&self, _data: &D, _x0: &SVector<f64, NX>) -> Refinement<NX> {
         Refinement::Unsupported
     }
-    /// Restart `k` around `x`, the first-ranked learned hypothesis.
+    /// Restart `k` around `x`, the first-ranked learned hypothesis (for `k <` [`Plan::restarts`]).
     fn restart_start(&self, _data: &D, _x: &SVector<f64, NX>, _k: usize) -> Option<SVector<f64, NX>> {
         None
     }
@@ -204,11 +183,15 @@ where
     fn name(&self) -> &'static str {
         S::NAME
     }
-    fn refines(&self) -> bool {
-        S::REFINES
-    }
-    fn restarts(&self) -> usize {
-        S::RESTARTS
+    fn plan(&self) -> Plan<SVector<f64, ND>, NX, NF, NP> {
+        Plan {
+            refine: S::REFINES,
+            restarts: S::RESTARTS,
+            other_starts: self.other_starts(),
+            other_simulators: self.other_simulators(),
+            options: self.options(),
+            ..Plan::default()
+        }
     }
     fn shipped_weights(&self) -> Option<&'static [u8]> {
         self.weights()
@@ -218,15 +201,6 @@ where
     }
     fn make_validator(&self, noise: f64) -> S::Validator {
         self.validator(noise)
-    }
-    fn solve_options(&self) -> PipelineOptions {
-        self.options()
-    }
-    fn extra_starts(&self) -> Vec<Box<dyn StartProvider<SVector<f64, ND>, NX> + Send + Sync>> {
-        self.other_starts()
-    }
-    fn extra_simulators(&self) -> Vec<Box<dyn StartSimulator<SVector<f64, ND>, NX, NF, NP> + Send + Sync>> {
-        self.other_simulators()
     }
     fn check_data(&self, p: &SVector<f64, ND>) -> Result<(), FirstRowsError> {
         if let Some(index) = p.iter().position(|v| !v.is_finite()) {

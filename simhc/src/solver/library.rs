@@ -28,6 +28,7 @@
 use super::hypotheses::{LearnedHypotheses, RankedStart, RankedStarts};
 use super::instance::{InstanceProblem, OwnCanon, OwnFallback, OwnSimulator, Parts, RefinedStart};
 use super::parts::FirstRowsError;
+use super::plan::Plan;
 use super::restarts::{RestartStart, MAX_RESTARTS};
 use super::schedule::{other_starts_first, shipped_schedule, solver_schedule, SolverAttempt, StartId};
 use crate::certify::{certify_rows, choose_rows, Certificate, CertifyError};
@@ -182,12 +183,6 @@ pub type InstanceOutcome<V, const NX: usize, D> = Result<Solution<CheckOf<V, NX,
 /// [`InstanceOutcome`] of a data vector.
 pub type Outcome<V, const NX: usize, const ND: usize> = InstanceOutcome<V, NX, SVector<f64, ND>>;
 
-/// A start provider of the data `D`, shared by the threads of a solver.
-type SharedStart<D, const NX: usize> = Box<dyn StartProvider<D, NX> + Send + Sync>;
-
-/// A simulator of the data `D`, shared by the threads of a solver.
-type SharedSimulator<D, const NX: usize, const NF: usize, const NP: usize> = Box<dyn StartSimulator<D, NX, NF, NP> + Send + Sync>;
-
 /// A problem's solver for data of type `D` ([module docs](self)); [`Solver`] for a row-wise
 /// problem.
 pub struct InstanceSolver<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, D: ?Sized>
@@ -197,16 +192,10 @@ where
     problem: Arc<S>,
     learned: S::Learned,
     validator: S::Validator,
-    /// [`InstanceProblem::extra_starts`], made once.
-    other_starts: Vec<SharedStart<D, NX>>,
-    /// [`InstanceProblem::extra_simulators`], made once.
-    other_simulators: Vec<SharedSimulator<D, NX, NF, NP>>,
-    /// [`solver_schedule`] of [`shipped_schedule`].
+    /// What a solve tries ([`InstanceProblem::plan`], or [`InstanceSolver::with_plan`]'s).
+    plan: Plan<D, NX, NF, NP>,
+    /// [`solver_schedule`] of [`shipped_schedule`] for the plan.
     schedule: Vec<SolverAttempt>,
-    /// [`InstanceProblem::solve_options`], made once.
-    options: PipelineOptions,
-    /// [`InstanceProblem::restarts`].
-    restarts: usize,
     /// Whether a solve certifies ([`InstanceSolver::certifying`]).
     certification: Certification,
     /// The all-roots fallback given at run time ([`InstanceSolver::with_fallback`]), instead of
@@ -247,44 +236,54 @@ where
     /// several solvers, or a start that is not a network).
     pub fn with_learned(problem: Arc<S>, learned: S::Learned, noise: f64) -> Result<Self, SolverError> {
         let validator = problem.make_validator(noise);
-        let (other_starts, other_simulators) = (problem.extra_starts(), problem.extra_simulators());
-        let restarts = problem.restarts();
+        let plan = problem.plan();
+        Self::assemble(problem, learned, validator, plan)
+    }
+
+    /// The same solver trying `plan` instead of the problem's ([`InstanceProblem::plan`]): for
+    /// example more restarts, no fallback, or other tracker options. An error when the plan
+    /// asks for more starts, simulators or restarts than a solve has room for.
+    pub fn with_plan(self, plan: Plan<D, NX, NF, NP>) -> Result<Self, SolverError> {
+        let Self { problem, learned, validator, certification, fallback, .. } = self;
+        Ok(Self { certification, fallback, ..Self::assemble(problem, learned, validator, plan)? })
+    }
+
+    /// The one place a solver is put together: the plan checked and its schedule made.
+    fn assemble(problem: Arc<S>, learned: S::Learned, validator: S::Validator, plan: Plan<D, NX, NF, NP>) -> Result<Self, SolverError> {
         let counts = [
             ("learned hypotheses", learned.hypotheses(), MAX_HYPOTHESES),
-            ("other starts", other_starts.len(), MAX_OTHERS),
-            ("other simulators", other_simulators.len(), MAX_OTHERS),
-            ("restarts", restarts, MAX_RESTARTS),
+            ("other starts", plan.other_starts.len(), MAX_OTHERS),
+            ("other simulators", plan.other_simulators.len(), MAX_OTHERS),
+            ("restarts", plan.restarts, MAX_RESTARTS),
         ];
         for (what, count, most) in counts {
             if count > most {
                 return Err(SolverError::TooMany { problem: problem.name(), what, count, most });
             }
         }
-        let hypotheses = learned.hypotheses();
-        let mut schedule =
-            solver_schedule(shipped_schedule(problem.refines()), hypotheses, other_starts.len(), other_simulators.len(), restarts);
-        if problem.other_starts_first() {
-            other_starts_first(&mut schedule, restarts);
+        let mut schedule = solver_schedule(
+            shipped_schedule(plan.refine),
+            learned.hypotheses(),
+            plan.other_starts.len(),
+            plan.other_simulators.len(),
+            plan.restarts,
+        );
+        if plan.other_starts_first {
+            other_starts_first(&mut schedule, plan.restarts);
         }
-        let options = problem.solve_options();
-        Ok(Self {
-            problem,
-            learned,
-            validator,
-            other_starts,
-            other_simulators,
-            schedule,
-            options,
-            restarts,
-            certification: Certification::Off,
-            fallback: None,
-        })
+        Ok(Self { problem, learned, validator, plan, schedule, certification: Certification::Off, fallback: None })
     }
 
-    /// Whether a solve ends with an all-roots fallback: one given
-    /// ([`InstanceSolver::with_fallback`]) or the problem's own with its start system.
+    /// What a solve tries.
+    pub fn plan(&self) -> &Plan<D, NX, NF, NP> {
+        &self.plan
+    }
+
+    /// Whether a solve ends with an all-roots fallback: the plan asks for it ([`Plan::fallback`])
+    /// and there is one, given ([`InstanceSolver::with_fallback`]) or the problem's own with its
+    /// start system.
     pub fn has_fallback(&self) -> bool {
-        self.fallback.is_some() || self.problem.has_fallback()
+        self.plan.fallback && (self.fallback.is_some() || self.problem.has_fallback())
     }
 
     /// The same solver with `fallback` as its all-roots fallback instead of the problem's own:
@@ -437,8 +436,8 @@ where
         let positions = StartPositions {
             hypotheses: count.min(MAX_HYPOTHESES),
             given: given.is_some(),
-            others: self.other_starts.len(),
-            restarts: self.restarts.min(MAX_RESTARTS),
+            others: self.plan.other_starts.len(),
+            restarts: self.plan.restarts.min(MAX_RESTARTS),
         };
         const PROVIDERS: usize = 2 * MAX_HYPOTHESES + 1 + MAX_OTHERS + MAX_RESTARTS + 1;
         let mut starts: [&dyn StartProvider<D, NX>; PROVIDERS] = [&none; PROVIDERS];
@@ -449,7 +448,7 @@ where
         if let Some(given) = given {
             starts[positions.position(StartId::Given)] = given;
         }
-        for (j, other) in self.other_starts.iter().enumerate() {
+        for (j, other) in self.plan.other_starts.iter().enumerate() {
             starts[positions.position(StartId::Other(j))] = &**other;
         }
         for (k, restart) in restarts.iter().enumerate().take(positions.restarts) {
@@ -459,15 +458,16 @@ where
         let starts = &starts[..=positions.none()];
         let schedule = PositionedSchedule { attempts: schedule, positions };
         let mut others: [&dyn StartSimulator<D, NX, NF, NP>; MAX_OTHERS] = [&simulator; MAX_OTHERS];
-        for (slot, other) in others.iter_mut().zip(&self.other_simulators) {
+        for (slot, other) in others.iter_mut().zip(&self.plan.other_simulators) {
             *slot = &**other;
         }
-        let others = &others[..self.other_simulators.len()];
+        let others = &others[..self.plan.other_simulators.len()];
         let all_roots = OwnFallback::<S, NF, NC>(problem);
+        let fallback = fallback && self.plan.fallback;
         let mut pipeline = Pipeline::<S::Tracked, _, _, _, _, NX, NF, NP, NC>::new(&target, starts, &simulator, &self.validator)
             .with_schedule_of(&schedule)
             .with_other_simulators(others)
-            .with_options(PipelineOptions { fallback, ..self.options });
+            .with_options(PipelineOptions { fallback, ..self.plan.options });
         if let (true, Some(given)) = (fallback, &self.fallback) {
             pipeline = pipeline.with_fallback(&**given);
         } else if fallback && problem.has_fallback() {

@@ -14,6 +14,7 @@
 //! - [`subsystem`]: all roots of a square subsystem;
 //! - [`residual`]: a row's equations and the default per-correspondence error;
 //! - [`schedule`]: what a solve tries in which order, each attempt naming its start;
+//! - [`plan`]: what a solver tries, a value apart from the problem ([`Plan`]);
 //! - [`problem`]: the trait of a solve and its hook types;
 //! - [`scenes`]: the trait of the commands, on top of it;
 //! - [`parts`]: the parts a solve is assembled from (tracked parameters, random and given
@@ -36,6 +37,7 @@ pub mod instance;
 pub mod library;
 pub mod many_rows;
 pub mod parts;
+pub mod plan;
 pub mod problem;
 pub mod residual;
 pub mod restarts;
@@ -53,6 +55,7 @@ pub use library::{
 };
 pub use many_rows::RowsSolution;
 pub use parts::{Canon, FirstRows, FirstRowsError, GivenStart, RandomStart};
+pub use plan::Plan;
 pub use problem::{CanonicalFrame, DeclaredProblem, DeclaredSizes, DegenerateInput, OtherSimulator, OtherStart, Refinement};
 pub use residual::row_residual;
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};

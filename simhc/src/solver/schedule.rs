@@ -21,7 +21,7 @@ pub enum StartId {
         /// Whether it was refined on all the data first.
         refined: bool,
     },
-    /// The problem's `j`-th other start ([`super::InstanceProblem::extra_starts`]).
+    /// The problem's `j`-th other start ([`super::Plan::other_starts`]).
     Other(usize),
     /// Restart `k` around the first-ranked hypothesis ([`super::restarts`]).
     Restart(usize),

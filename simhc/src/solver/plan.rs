@@ -1,0 +1,70 @@
+//! What a solver tries, apart from what only the problem knows: a value, built once. A problem
+//! gives its default ([`super::InstanceProblem::plan`]; a declared problem's comes from its
+//! `REFINES`, `RESTARTS`, `options`, `other_starts` and `other_simulators`), and a caller may
+//! change it before the solver is built ([`super::InstanceSolver::with_plan`]), as PoseLib's
+//! option structs and HomotopyContinuation.jl's keywords sit apart from the system solved.
+
+use crate::pipeline::{PipelineOptions, StartProvider, StartSimulator};
+use std::fmt;
+
+/// A start provider of the data `D`, shared by the threads of a solver.
+pub type SharedStart<D, const NX: usize> = Box<dyn StartProvider<D, NX> + Send + Sync>;
+
+/// A simulator of the data `D`, shared by the threads of a solver.
+pub type SharedSimulator<D, const NX: usize, const NF: usize, const NP: usize> = Box<dyn StartSimulator<D, NX, NF, NP> + Send + Sync>;
+
+/// What a solve of data `D` tries, in which order, and with which options. The learned start
+/// comes first (its weights are given to the solver); then, in the shipped schedule's order,
+/// the other starts and simulators, the restarts, and the all-roots fallback.
+pub struct Plan<D: ?Sized, const NX: usize, const NF: usize, const NP: usize> {
+    /// Refine each learned hypothesis on the data (the problem's `refine_start`) before it
+    /// is tracked: Gauss-Newton on the data, then the path from the refined start.
+    pub refine: bool,
+    /// Restarts from rotated learned hypotheses, after the other attempts (at most
+    /// [`super::MAX_RESTARTS`]).
+    pub restarts: usize,
+    /// Starts other than the learned one (closed-form, linear), each tracked like a learned
+    /// hypothesis.
+    pub other_starts: Vec<SharedStart<D, NX>>,
+    /// Simulators other than the problem's own, each building start parameters for the
+    /// learned hypotheses.
+    pub other_simulators: Vec<SharedSimulator<D, NX, NF, NP>>,
+    /// Try the other starts before the learned one: for a start that is cheaper and exact on
+    /// noise-free data (UPnP's linear start).
+    pub other_starts_first: bool,
+    /// End with the all-roots fallback when nothing validated, if the solver has one (the
+    /// problem's start system or one given at run time).
+    pub fallback: bool,
+    /// Tracker, Newton and schedule options.
+    pub options: PipelineOptions,
+}
+
+impl<D: ?Sized, const NX: usize, const NF: usize, const NP: usize> Default for Plan<D, NX, NF, NP> {
+    /// The learned start alone (not refined), then the fallback; the pipeline's default options.
+    fn default() -> Self {
+        Self {
+            refine: false,
+            restarts: 0,
+            other_starts: Vec::new(),
+            other_simulators: Vec::new(),
+            other_starts_first: false,
+            fallback: true,
+            options: PipelineOptions::default(),
+        }
+    }
+}
+
+impl<D: ?Sized, const NX: usize, const NF: usize, const NP: usize> fmt::Debug for Plan<D, NX, NF, NP> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names = |starts: Vec<&'static str>| starts.join(", ");
+        f.debug_struct("Plan")
+            .field("refine", &self.refine)
+            .field("restarts", &self.restarts)
+            .field("other_starts", &names(self.other_starts.iter().map(|s| s.name()).collect()))
+            .field("other_simulators", &self.other_simulators.len())
+            .field("other_starts_first", &self.other_starts_first)
+            .field("fallback", &self.fallback)
+            .field("options", &self.options)
+            .finish()
+    }
+}

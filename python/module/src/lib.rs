@@ -25,6 +25,6 @@ pub mod solution;
 
 pub use class::{info_dict, ransac_options, ProblemSolver};
 pub use errors::{Error, Exceptions, Failure};
-pub use problem::{add_problem, estimate_failure, public_name, register, solve_failure, DynSolver, Field, Fields, MakeSolver};
+pub use problem::{add_problem, add_solver, estimate_failure, public_name, register, solve_failure, DynSolver, Field, Fields, MakeSolver};
 pub use pyo3;
 pub use solution::Solution;

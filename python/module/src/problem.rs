@@ -231,10 +231,16 @@ where
             .certifying(simhc::solver::Certification::Report);
         Ok(Arc::new(solver))
     };
+    add_solver(m, Box::new(make))
+}
+
+/// Puts any problem's solver in a Python module, as [`add_problem`] does a declared one's:
+/// `make(noise)` builds its [`DynSolver`] (data of any type, given to Python as named fields).
+pub fn add_solver<'py>(m: &Bound<'py, pyo3::types::PyModule>, make: MakeSolver) -> PyResult<Bound<'py, ProblemSolver>> {
     let module = public_name(&m.name()?.to_string()).to_string();
     let exceptions = Arc::new(Exceptions::new(m.py(), &module)?);
     exceptions.add_to(m)?;
-    let object = register(m, "solver", Box::new(make), exceptions)?;
+    let object = register(m, "solver", make, exceptions)?;
     for name in ["solve", "solve_batch", "estimate"] {
         m.add(name, object.getattr(name)?)?;
     }
@@ -252,21 +258,21 @@ pub fn public_name(name: &str) -> &str {
     }
 }
 
-/// The help of a declared problem's module: what it solves and the names it holds.
+/// The help of a problem's module: what it solves and the names it holds.
 fn module_doc(module: &str, fields: &Fields) -> String {
     let per_row = fields_len(&fields.row);
+    let count = if fields.more_rows { format!("{} or more", fields.rows) } else { format!("exactly {}", fields.rows) };
     format!(
         "{module}: the simhc solver of {about}\n\n\
-         - {module}.solve(rows, globals=None, *, noise=0.0): one instance of exactly {rows} rows (or the fields by\n  \
-         name), a Solution of the validated unknowns and `certified`.\n\
+         - {module}.solve(rows, globals=None, *, noise=None): one instance of {count} rows (or the fields by\n  \
+         name), a Solution of the validated solution fields and `certified`.\n\
          - {module}.estimate(rows, globals=None, *, threshold, ...): robust (LO-RANSAC), any number of rows with\n  \
          outliers; returns (solution, info).\n\
-         - {module}.solve_batch(rows, globals=None, *, noise=0.0): (B, {rows}, {per_row}) rows across cores; returns (x, ok).\n\
+         - {module}.solve_batch(rows, globals=None, *, noise=0.0): (B, N, {per_row}) rows across cores; returns (x, ok).\n\
          - {module}.solver: the {module}.ProblemSolver behind them.\n\n\
          Errors: {module}.InputError (a ValueError naming the row and field), {module}.SolveError (a\n\
          RuntimeError) with {module}.NotValidatedError and {module}.NoSolutionError.",
         about = fields.about,
-        rows = fields.rows,
     )
 }
 
@@ -284,8 +290,20 @@ fn module_doc(module: &str, fields: &Fields) -> String {
 /// The solver is built once, at import. The crate must depend on `simhc-pymodule` under that
 /// name. Do not name a module after one of the standard library's (`grp` is Unix groups):
 /// Python finds that one first.
+///
+/// Data of another type (UPnP's correspondences): implement [`DynSolver`] and give the function
+/// that builds it for a noise level, `python_module!(focal, solver = my_solver)` with
+/// `fn my_solver(noise: f64) -> Result<Arc<dyn DynSolver>, String>` ([`add_solver`]; the
+/// built-ins of the `simhc` wheel are two such solvers, `python/src/builtin.rs`).
 #[macro_export]
 macro_rules! python_module {
+    ($module:ident, solver = $make:expr) => {
+        #[$crate::pyo3::pymodule]
+        #[pyo3(crate = "::simhc_pymodule::pyo3")]
+        pub fn $module(m: &$crate::pyo3::Bound<'_, $crate::pyo3::types::PyModule>) -> $crate::pyo3::PyResult<()> {
+            $crate::add_solver(m, ::std::boxed::Box::new($make)).map(|_| ())
+        }
+    };
     ($module:ident, $problem:expr) => {
         #[$crate::pyo3::pymodule]
         #[pyo3(crate = "::simhc_pymodule::pyo3")]

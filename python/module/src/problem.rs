@@ -102,6 +102,9 @@ pub trait DynSolver: Send + Sync {
         let f = self.fields();
         let (per, g) = (n * fields_len(&f.row), fields_len(&f.globals));
         let count = rows.len().checked_div(per).unwrap_or(0);
+        if globals.len() != count * g {
+            return vec![Err(Failure::Input(format!("`globals`: {} numbers for {count} instances of {g}", globals.len()))); count];
+        }
         (0..count).map(|i| self.solve(n, &rows[i * per..(i + 1) * per], &globals[i * g..(i + 1) * g]).map(|(x, _)| x)).collect()
     }
     /// The robust estimate from any number of rows with outliers.
@@ -150,7 +153,16 @@ where
             about: about(S::NAME, &layout),
         }
     }
-    fn solve(&self, _: usize, rows: &[f64], globals: &[f64]) -> Result<(Vec<f64>, Option<f64>), Failure> {
+    fn solve(&self, n: usize, rows: &[f64], globals: &[f64]) -> Result<(Vec<f64>, Option<f64>), Failure> {
+        if rows.len() + globals.len() != ND {
+            let (per_row, g) = (S::Data::LAYOUT.per_row, S::Data::LAYOUT.globals_len());
+            return Err(Failure::Input(format!(
+                "{n} rows and {} global numbers: `{}` takes {} rows of {per_row} and {g}",
+                globals.len(),
+                S::NAME,
+                S::Data::LAYOUT.rows
+            )));
+        }
         let p = SVector::<f64, ND>::from_iterator(rows.iter().chain(globals).copied());
         Solver::solve(self, &p)
             .map(|s| (s.x.as_slice().to_vec(), s.certified.and_then(|c| c.ok()).map(|c| c.error_bound())))
@@ -159,6 +171,17 @@ where
     fn solve_batch(&self, n: usize, rows: &[f64], globals: &[f64]) -> Vec<Result<Vec<f64>, Failure>> {
         let (per, g) = (n * S::Data::LAYOUT.per_row, S::Data::LAYOUT.globals_len());
         let count = rows.len().checked_div(per).unwrap_or(0);
+        if n != S::Data::LAYOUT.rows || globals.len() != count * g {
+            return vec![
+                Err(Failure::Input(format!(
+                    "{n} rows and {} global numbers per instance: `{}` takes {} rows and {g}",
+                    globals.len() / count.max(1),
+                    S::NAME,
+                    S::Data::LAYOUT.rows
+                )));
+                count
+            ];
+        }
         let data: Vec<SVector<f64, ND>> = (0..count)
             .map(|i| SVector::from_iterator(rows[i * per..(i + 1) * per].iter().chain(&globals[i * g..(i + 1) * g]).copied()))
             .collect();

@@ -4,7 +4,7 @@
 //! solves generalized absolute pose with the same assembly as every declared problem
 //! (Gauss-Newton from each start, then one path from each, then the all-roots fallback, each
 //! end point validated on all correspondences; UPnP puts its linear start before the learned
-//! one, [`InstanceProblem::other_starts_first`]):
+//! one, [`Plan::other_starts_first`]):
 //!
 //! ```no_run
 //! use simhc_problems::upnp::instance::{UpnpLibrarySolver, UpnpProblem};

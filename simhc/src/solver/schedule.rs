@@ -134,7 +134,7 @@ pub fn solver_schedule(base: &[SolverAttempt], hypotheses: usize, starts: usize,
 /// `schedule` (of [`solver_schedule`], with `restarts` restarts at its end) with the other
 /// starts' attempts first within the cheap attempts and within the paths, otherwise in order:
 /// for a problem whose other start is cheaper than the learned one and as good on its data
-/// ([`super::InstanceProblem::other_starts_first`]: UPnP's closed-form linear start, about 3 us
+/// ([`super::Plan::other_starts_first`]: UPnP's closed-form linear start, about 3 us
 /// against the network's 10 us on 10 correspondences, exact on noise-free data).
 pub fn other_starts_first(schedule: &mut [SolverAttempt], restarts: usize) {
     let end = schedule.len().saturating_sub(restarts);

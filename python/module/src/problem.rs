@@ -9,6 +9,7 @@ use crate::class::ProblemSolver;
 use crate::errors::{Exceptions, Failure};
 use nalgebra::SVector;
 use pyo3::prelude::*;
+use rayon::prelude::*;
 use simhc::layout::{FieldKind, FieldLayout, Layout};
 use simhc::ransac::RansacOptions;
 use simhc::solver::library::Check;
@@ -97,7 +98,7 @@ pub trait DynSolver: Send + Sync {
     /// solution and the error bound of its certificate (`None`: not certified).
     fn solve(&self, n: usize, rows: &[f64], globals: &[f64]) -> Result<(Vec<f64>, Option<f64>), Failure>;
     /// Solves of `rows.len() / (n * per_row)` instances of `n` rows each, `globals` holding
-    /// each one's: one after the other unless the solver has better.
+    /// each one's, across rayon's threads.
     fn solve_batch(&self, n: usize, rows: &[f64], globals: &[f64]) -> Vec<Result<Vec<f64>, Failure>> {
         let f = self.fields();
         let (per, g) = (n * fields_len(&f.row), fields_len(&f.globals));
@@ -105,7 +106,10 @@ pub trait DynSolver: Send + Sync {
         if globals.len() != count * g {
             return vec![Err(Failure::Input(format!("`globals`: {} numbers for {count} instances of {g}", globals.len()))); count];
         }
-        (0..count).map(|i| self.solve(n, &rows[i * per..(i + 1) * per], &globals[i * g..(i + 1) * g]).map(|(x, _)| x)).collect()
+        (0..count)
+            .into_par_iter()
+            .map(|i| self.solve(n, &rows[i * per..(i + 1) * per], &globals[i * g..(i + 1) * g]).map(|(x, _)| x))
+            .collect()
     }
     /// The robust estimate from any number of rows with outliers.
     fn estimate(&self, rows: &[f64], globals: &[f64], options: &RansacOptions) -> Result<(Vec<f64>, EstimateInfo), Failure>;

@@ -10,8 +10,9 @@ use simhc_problems::grps::geometry::validate;
 use simhc_problems::grps::pose::GrpsPose;
 use simhc_problems::grps::{correspondence_of_row, ROW_LEN};
 use simhc_problems::upnp::instance::{upnp_pose, UpnpLibrarySolver, UpnpProblem};
+use simhc_problems::upnp::learned::UpnpLearned;
 use simhc_problems::upnp::scene::UpnpCorrespondence;
-use simhc_pymodule::{estimate_failure, solve_failure, DynSolver, Failure, Field, Fields, MakeSolver};
+use simhc_pymodule::{estimate_failure, solve_failure, DynSolver, Failure, Field, Fields};
 use std::sync::{Arc, OnceLock};
 
 /// The focal length (pixels) the built-ins' pixel units refer to.
@@ -40,12 +41,9 @@ fn pose_fields(scale: bool) -> Vec<Field> {
 }
 
 /// The shipped UPnP learned start, loaded once and shared by every UPnP solver of the process.
-fn upnp_learned() -> Result<&'static UpnpLibrarySolver, String> {
-    static SOLVER: OnceLock<Result<UpnpLibrarySolver, String>> = OnceLock::new();
-    SOLVER
-        .get_or_init(|| UpnpLibrarySolver::new(UpnpProblem::default()).map_err(|e| format!("the shipped UPnP weights: {e}")))
-        .as_ref()
-        .map_err(Clone::clone)
+fn upnp_learned() -> Result<&'static UpnpLearned, String> {
+    static LEARNED: OnceLock<Result<UpnpLearned, String>> = OnceLock::new();
+    LEARNED.get_or_init(|| UpnpLearned::shipped().map_err(|e| format!("the shipped UPnP weights: {e}"))).as_ref().map_err(Clone::clone)
 }
 
 /// Generalized absolute pose (UPnP) of a multi-camera rig.
@@ -61,15 +59,14 @@ pub fn upnp(noise: f64) -> Result<Arc<dyn DynSolver>, String> {
     } else {
         UpnpProblem { max_angle: (8.0 * noise / FOCAL_PX).max(1e-6), ..UpnpProblem::default() }
     };
-    let learned = upnp_learned()?.learned_start().clone();
+    let learned = upnp_learned()?.clone();
     let solver = UpnpLibrarySolver::with_learned(Arc::new(problem), learned, 0.0).map_err(|e| format!("the shipped UPnP weights: {e}"))?;
     Ok(Arc::new(Upnp { solver: solver.certifying(Certification::Report) }))
 }
 
 /// The correspondences of UPnP's rows `[points, bearings, origins]`.
 fn upnp_correspondences(rows: &[f64]) -> Vec<UpnpCorrespondence> {
-    let v = |r: &[f64], k: usize| Vector3::new(r[k], r[k + 1], r[k + 2]);
-    rows.chunks_exact(9).map(|r| UpnpCorrespondence { p: v(r, 0), f: v(r, 3), v: v(r, 6) }).collect()
+    rows.chunks_exact(UpnpCorrespondence::ROW_LEN).map(UpnpCorrespondence::from_row).collect()
 }
 
 impl DynSolver for Upnp {
@@ -173,9 +170,4 @@ impl DynSolver for Grps {
         let (x, info) = self.solvers.seven.estimate((rows, globals), options).map_err(estimate_failure)?;
         Ok((grps_pose(&x)?, info))
     }
-}
-
-/// What registration takes: a problem's solver for each noise level.
-pub fn make(build: fn(f64) -> Result<Arc<dyn DynSolver>, String>) -> MakeSolver {
-    Box::new(build)
 }

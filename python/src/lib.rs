@@ -17,7 +17,7 @@ use std::sync::Arc;
 fn _simhc(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let exceptions = Arc::new(Exceptions::new(m.py(), "simhc")?);
     exceptions.add_to(m)?;
-    register(m, "upnp", builtin::make(builtin::upnp), exceptions.clone())?;
-    register(m, "grps", builtin::make(builtin::grps), exceptions)?;
+    register(m, "upnp", Box::new(builtin::upnp), exceptions.clone())?;
+    register(m, "grps", Box::new(builtin::grps), exceptions)?;
     Ok(())
 }

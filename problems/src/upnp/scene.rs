@@ -60,6 +60,18 @@ pub struct UpnpCorrespondence {
     pub v: Vector3<f64>,
 }
 
+impl UpnpCorrespondence {
+    /// The numbers of one correspondence as a row: `p`, `f`, `v`.
+    pub const ROW_LEN: usize = 9;
+
+    /// The correspondence of a row `[p, f, v]` ([`Self::ROW_LEN`] numbers; longer rows are
+    /// read from their start). What the rows of the CLI's trials files and of Python hold.
+    pub fn from_row(row: &[f64]) -> Self {
+        let v = |k: usize| Vector3::new(row[k], row[k + 1], row[k + 2]);
+        Self { p: v(0), f: v(3), v: v(6) }
+    }
+}
+
 /// A sampled UPnP problem with its ground truth pose (`alpha_i f_i + v_i = R p_i + t`).
 ///
 /// Serialized (serde) as `{"correspondences": [{"p": [x,y,z], "f": [..], "v": [..]}, ..],

@@ -356,10 +356,9 @@ pub fn ransac(a: &crate::ransac::RansacArgs) -> Result<(crate::ransac::TrialsFil
     let problem = UpnpProblem { max_angle: (8.0 * file.noise / focal_px).max(1e-6), ..UpnpProblem::default() };
     let solver = UpnpLibrarySolver::with_learned(std::sync::Arc::new(problem), learned, 0.0).map_err(|e| e.to_string())?;
     let report = crate::ransac::evaluate(&file, a.skip_explained, |trial, options| {
-        let v3 = |s: &[f64]| nalgebra::Vector3::new(s[0], s[1], s[2]);
-        let corrs: Vec<UpnpCorrespondence> =
-            trial.rows.iter().map(|r| UpnpCorrespondence { p: v3(&r[0..3]), f: v3(&r[3..6]), v: v3(&r[6..9]) }).collect();
-        let (rotation, translation) = (Matrix3::from_row_slice(&trial.truth[..9]), v3(&trial.truth[9..]));
+        let corrs: Vec<UpnpCorrespondence> = trial.rows.iter().map(|r| UpnpCorrespondence::from_row(r)).collect();
+        let (rotation, translation) =
+            (Matrix3::from_row_slice(&trial.truth[..9]), nalgebra::Vector3::from_column_slice(&trial.truth[9..12]));
         let t0 = Instant::now();
         let result = solver.estimate(&corrs, options);
         let ms = t0.elapsed().as_secs_f64() * 1e3;

@@ -106,9 +106,7 @@ fn row(p: &Params, i: usize) -> [Vector3<f64>; 4] {
 
 fn set_row(p: &mut Params, i: usize, fields: [Vector3<f64>; 4]) {
     for (k, v) in fields.iter().enumerate() {
-        for c in 0..3 {
-            p[12 * i + 3 * k + c] = v[c];
-        }
+        p.fixed_rows_mut::<3>(12 * i + 3 * k).copy_from(v);
     }
 }
 
@@ -285,11 +283,7 @@ impl Validator<Params, { grp::NX }> for Coplanarity {
     }
 
     fn verdict(&self, c: &(usize, f64)) -> Verdict {
-        if c.0 == 0 && c.1 <= self.tolerance {
-            Verdict::Accept
-        } else {
-            Verdict::Reject
-        }
+        Verdict::accept_if(c.0 == 0 && c.1 <= self.tolerance)
     }
 
     fn better(&self, a: &(usize, f64), b: &(usize, f64)) -> bool {

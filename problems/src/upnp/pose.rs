@@ -70,11 +70,7 @@ impl UpnpValidation {
 
     /// [`UpnpValidation::passes`] as the pipeline's verdict.
     pub fn verdict(&self, max_angle: f64, max_behind: usize) -> Verdict {
-        if self.passes(max_angle, max_behind) {
-            Verdict::Accept
-        } else {
-            Verdict::Reject
-        }
+        Verdict::accept_if(self.passes(max_angle, max_behind))
     }
 
     /// Whether `self` explains the data better than `other` (ranks end points that do not

@@ -43,11 +43,7 @@ impl Validator<P, 2> for Residual {
         p.as_slice().chunks_exact(2).map(|r| (x[0] * r[0] + x[1] - r[1]).abs()).fold(0.0, f64::max)
     }
     fn verdict(&self, c: &f64) -> Verdict {
-        if *c <= self.0 {
-            Verdict::Accept
-        } else {
-            Verdict::Reject
-        }
+        Verdict::accept_if(*c <= self.0)
     }
     fn better(&self, a: &f64, b: &f64) -> bool {
         a < b

@@ -96,6 +96,17 @@ pub enum Verdict {
     Reject,
 }
 
+impl Verdict {
+    /// `Accept` when the check passes, else `Reject` (a validator without a plausible band).
+    pub fn accept_if(passes: bool) -> Self {
+        if passes {
+            Self::Accept
+        } else {
+            Self::Reject
+        }
+    }
+}
+
 /// Does an end point explain all the data?
 pub trait Validator<D: ?Sized, const NX: usize> {
     /// The figures of one check (residuals, violated inequalities). `Serialize`: `solve`

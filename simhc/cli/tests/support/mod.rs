@@ -12,11 +12,7 @@ impl Validator<SVector<f64, 6>, 1> for Residual {
         p.as_slice().chunks_exact(2).map(|r| (x[0] * r[0] - r[1]).abs()).fold(0.0, f64::max)
     }
     fn verdict(&self, c: &f64) -> Verdict {
-        if *c <= 1e-9 {
-            Verdict::Accept
-        } else {
-            Verdict::Reject
-        }
+        Verdict::accept_if(*c <= 1e-9)
     }
     fn better(&self, a: &f64, b: &f64) -> bool {
         a < b

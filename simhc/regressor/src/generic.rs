@@ -414,13 +414,28 @@ where
     R: InputRows,
     F: FnMut(&mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>),
 {
+    let (network, run) = train_network(layout, &rows, config, &mut sample)?;
+    Ok(TrainedStart { start: LearnedStart::with_rows(network, *layout, rows)?, run })
+}
+
+/// Draws a scene: its parameters and its true unknowns.
+type SceneSampler<'a> = dyn FnMut(&mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>) + 'a;
+
+/// The network and the run of [`train_learned_start_with`]. Not generic, so that burn's
+/// training loop is compiled once, here, and not again in every problem's binary: it was an
+/// eighth of the LLVM IR of the example's `grp` (`cargo llvm-lines`, 2026-12-05).
+fn train_network(
+    layout: &Layout,
+    rows: &dyn InputRows,
+    config: &LearnedStartConfig,
+    sample: &mut SceneSampler<'_>,
+) -> Result<(FoldedNetwork, TrainRun), LearnedStartError> {
     config.check()?;
-    let hook = LayoutFeatures::with_rows(layout, &rows);
+    let hook = LayoutFeatures::with_rows(layout, rows);
     let model = hook.model(config);
     let hook = WinnerTakesAll { hook, hypotheses: config.hypotheses, relax: config.relax };
     let trained = train_with_hook(&hook, &model, &config.train, config.samples, |_, rng| sample(rng))?;
-    let network = trained.folded()?;
-    Ok(TrainedStart { start: LearnedStart::with_rows(network, *layout, rows)?, run: trained.run })
+    Ok((trained.folded()?, trained.run))
 }
 
 /// Per-column mean and scale (standard deviation, 1 for a constant column).

@@ -284,7 +284,7 @@ fn a_restart_turns_the_prediction_and_resolves_translation_and_scale() {
     println!("seed {seed}");
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let problem = Grps8Problem::new();
-    let restarts = <Grps8Problem as DeclaredProblem<8, 9, 96, { Grps8::NC }, 96>>::RESTARTS;
+    let restarts = DeclaredProblem::plan(&problem).restarts;
     assert_eq!(restarts, 13 * GRPS_RESTART_ANGLES_DEG.len());
     assert!(restarts <= MAX_RESTARTS);
     for k in [0, 14, 40, restarts - 1] {

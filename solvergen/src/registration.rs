@@ -8,7 +8,9 @@
 //! on that line, and `impl DeclaredSizes for P { const SIZES: [usize; 5] = [T::NX, .., D::NP]; }`.
 //! `impl Scenes for P { .. }` becomes `impl Scenes<{ <P as DeclaredSizes>::SIZES[0] }, ..> for P`:
 //! a trait impl's const arguments cannot be read back, so `DeclaredSizes` carries them from one
-//! impl to the other. Every mistake of a block is reported at once.
+//! impl to the other. `fn plan(&self) -> Plan` gets the same sizes:
+//! `Plan<SVector<f64, { D::NP }>, { T::NX }, { T::NF }, { T::NP }>`. Every mistake of a block is
+//! reported at once.
 
 use crate::ctxt::Ctxt;
 use proc_macro2::TokenStream;
@@ -46,6 +48,9 @@ pub fn declared_problem(attr: TokenStream, item: TokenStream) -> Result<TokenStr
     if !last.arguments.is_none() {
         cx.error_spanned_by(&last.arguments, "remove the sizes: `#[declared_problem]` fills them in from `type Tracked` and `type Data`");
     }
+    if let Some(sizes) = &sizes {
+        size_the_plan(&mut cx, &mut block, sizes);
+    }
     cx.check()?;
     let self_ty = &block.self_ty;
     let (args, sizes_impl) = match sizes {
@@ -71,6 +76,33 @@ pub fn declared_problem(attr: TokenStream, item: TokenStream) -> Result<TokenStr
     let last = trait_path.segments.last_mut().expect("a parsed path has a segment");
     last.arguments = syn::PathArguments::AngleBracketed(syn::parse2(quote!(<#(#args),*>))?);
     Ok(quote!(#sizes_impl #block))
+}
+
+/// `fn plan(&self) -> Plan` of a `DeclaredProblem` block returns the plan of the problem's
+/// sizes, `Plan<SVector<f64, ND>, NX, NF, NP>`, spanned by the user's `Plan`.
+fn size_the_plan(cx: &mut Ctxt, block: &mut syn::ItemImpl, sizes: &[TokenStream; 5]) {
+    let [nx, nf, np, _, nd] = sizes;
+    for item in &mut block.items {
+        let syn::ImplItem::Fn(f) = item else { continue };
+        if f.sig.ident != "plan" {
+            continue;
+        }
+        let syn::ReturnType::Type(_, ty) = &mut f.sig.output else { continue };
+        let syn::Type::Path(path) = ty.as_mut() else { continue };
+        let Some(last) = path.path.segments.last() else { continue };
+        if last.ident != "Plan" {
+            continue;
+        }
+        if !last.arguments.is_none() {
+            cx.error_spanned_by(
+                &last.arguments,
+                "write `-> Plan`: `#[declared_problem]` fills in the sizes from `type Tracked` and `type Data`",
+            );
+            continue;
+        }
+        let span = last.ident.span();
+        **ty = syn::parse_quote_spanned!(span=> ::simhc::solver::Plan<::simhc::__private::nalgebra::SVector<f64, { #nd }>, { #nx }, { #nf }, { #np }>);
+    }
 }
 
 /// The five sizes of a `DeclaredProblem` block, `[T::NX, T::NF, T::NP, T::NC, D::NP]` of its
@@ -102,4 +134,41 @@ fn instance_sizes(cx: &mut Ctxt, block: &syn::ItemImpl) -> [TokenStream; 5] {
         let from = syn::Ident::new(from, ty.span());
         quote_spanned!(ty.span()=> <#ty>::#from)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::declared_problem;
+    use quote::quote;
+
+    #[test]
+    fn the_plan_gets_the_problems_sizes() {
+        let item = quote! {
+            impl DeclaredProblem for P {
+                type Tracked = Foo6;
+                type Data = Foo7;
+                fn plan(&self) -> Plan { Plan::default() }
+            }
+        };
+        let out = declared_problem(quote!(), item).expect("expands").to_string().replace(' ', "");
+        assert!(
+            out.contains(
+                "fnplan(&self)->::simhc::solver::Plan<::simhc::__private::nalgebra::SVector<f64,{<Foo7>::NP}>,{<Foo6>::NX},{<Foo6>::NF},{<Foo6>::NP}>"
+            ),
+            "{out}"
+        );
+    }
+
+    #[test]
+    fn a_plan_with_sizes_is_an_error_at_them() {
+        let item = quote! {
+            impl DeclaredProblem for P {
+                type Tracked = Foo6;
+                type Data = Foo7;
+                fn plan(&self) -> simhc::solver::Plan<V, 7, 7, 72> { Plan::default() }
+            }
+        };
+        let e = declared_problem(quote!(), item).expect_err("sizes written by hand");
+        assert!(e.to_string().contains("write `-> Plan`"), "{e}");
+    }
 }

@@ -13,7 +13,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::frames::bearing_frame;
 use simhc::pipeline::{Validator, Verdict};
-use simhc::solver::{DeclaredProblem, Scenes};
+use simhc::solver::{DeclaredProblem, Plan, Scenes};
 
 /// 1. The declaration. `Grp7` is solved (6 rows determine the pose, the 7th validates);
 ///    `Grp6` is the square system of the start system and the all-roots fallback.
@@ -316,7 +316,10 @@ impl DeclaredProblem for GenRelPose {
     fn canonicalize(&self, p: &Params) -> Option<(Params, CanonicalFrame)> {
         canonicalize(p)
     }
-    const REFINES: bool = true;
+    /// Gauss-Newton on all 7 rows from each learned hypothesis before its path.
+    fn plan(&self) -> Plan {
+        Plan { refine: true, ..Plan::default() }
+    }
     fn refine(&self, p: &Params, x0: &Unknowns) -> grp::Refinement {
         Grp7::gauss_newton(x0, p, &Default::default()).map(|(x, _)| x).into()
     }

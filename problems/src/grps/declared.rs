@@ -17,7 +17,7 @@
 //!   network on the swapped views ([`PredictedStart`]);
 //! - the restarts ([`DeclaredProblem::restart`]) are 65: the prediction turned by 20-180
 //!   degrees about 13 fixed axes ([`GRPS_RESTART_ANGLES_DEG`]), with least-squares `(t, s)`;
-//! - the solve settings ([`DeclaredProblem::options`], [`grps_pipeline_options`]): end points
+//! - the solve settings (the plan's options, [`grps_pipeline_options`]): end points
 //!   polished by Gauss-Newton, 4 more attempts after a plausible (noisy) one;
 //! - a RANSAC sample ([`Solver::estimate`]) of 7 keeps up to 4 distinct validated end points
 //!   ([`sample_candidates`], [`sample_attempts`]).
@@ -48,8 +48,8 @@ use simhc::pipeline::learned::NonFiniteParameter;
 use simhc::pipeline::path::gauss_newton;
 use simhc::pipeline::{Generic, InputRows, OutputDecoding, PipelineOptions, StartError, StartProvider, Validator, Verdict};
 use simhc::solver::{
-    rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, DegenerateInput, FirstRowsError, OtherSimulator, OtherStart, Refinement,
-    Scenes, Solution, SolveError, Solver, SolverError,
+    rotated_restart, AllRoots, CanonicalFrame, DeclaredProblem, DegenerateInput, FirstRowsError, Plan, Refinement, Scenes, Solution,
+    SolveError, Solver, SolverError,
 };
 use simhc::start_system::{MonodromyConfig, MonodromyReport, StartSystemError};
 use simhc::tracker::{NewtonOptions, TrackerOptions};
@@ -389,9 +389,6 @@ macro_rules! grps_problem {
             type Data = $instance;
             type Validator = GrpsValidator;
             const NAME: &'static str = $name;
-            const REFINES: bool = true;
-            /// 13 axes times [`GRPS_RESTART_ANGLES_DEG`].
-            const RESTARTS: usize = RESTARTS;
             /// [`sample_candidates`].
             const SAMPLE_CANDIDATES: usize = sample_candidates($rows);
             /// [`sample_attempts`].
@@ -415,9 +412,24 @@ macro_rules! grps_problem {
                 let to_user = move |x: &Unknowns| map_unknowns(x, |r, t, s| frame.from_canonical(r, t, s));
                 Some((canonical, CanonicalFrame::new(to_canonical, to_user)))
             }
+            /// Gauss-Newton on all rows from each learned hypothesis; [`RESTARTS`] restarts; the
+            /// other starts ([`PredictedStart`]: the predicted rotation with least-squares
+            /// `(t, s)`, the swapped prediction and its rotation with least-squares `(t, s)`) and
+            /// the minimum-norm simulator beside the tracked instance's own;
             /// [`grps_pipeline_options`].
-            fn options(&self) -> PipelineOptions {
-                grps_pipeline_options()
+            fn plan(&self) -> Plan<SVector<f64, $np>, 8, $nf, $np> {
+                let other_starts = match &self.network {
+                    Some(network) => PredictedKind::ALL.map(|kind| Box::new(PredictedStart { network: network.clone(), kind }) as _).into(),
+                    None => Vec::new(),
+                };
+                Plan {
+                    refine: true,
+                    restarts: RESTARTS,
+                    other_starts,
+                    other_simulators: vec![Box::new(Generic(MinNormSimulator::<$instance>::new()))],
+                    options: grps_pipeline_options(),
+                    ..Plan::default()
+                }
             }
             fn input_rows(&self) -> Option<&dyn InputRows> {
                 Some(&self.rows)
@@ -427,15 +439,6 @@ macro_rules! grps_problem {
             }
             fn weights(&self) -> Option<&'static [u8]> {
                 Some(GRPS_WEIGHTS)
-            }
-            /// The predicted rotation with least-squares `(t, s)`, the swapped prediction and its
-            /// rotation with least-squares `(t, s)` ([`PredictedStart`]).
-            fn other_starts(&self) -> Vec<OtherStart<8, $np>> {
-                let Some(network) = &self.network else { return Vec::new() };
-                PredictedKind::ALL.map(|kind| Box::new(PredictedStart { network: network.clone(), kind }) as OtherStart<8, $np>).into()
-            }
-            fn other_simulators(&self) -> Vec<OtherSimulator<8, $nf, $np, $np>> {
-                vec![Box::new(Generic(MinNormSimulator::<$instance>::new()))]
             }
             /// The prediction's rotation turned about fixed axes ([`rotated_restart`]) with its
             /// least-squares `(t, s)` (the prediction's own where there is none with `s > 0`),

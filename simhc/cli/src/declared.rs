@@ -348,7 +348,7 @@ where
         }
         let solver = self.solver_with(&a.weights, &a.start_system, a.noise)?;
         let random = RandomStart::new(S::Data::LAYOUT, a.seed.wrapping_add(1));
-        let has_refine = S::REFINES;
+        let has_refine = solver.plan().refine;
         let has_fallback = solver.has_fallback();
         let progress = !a.json;
         if progress {
@@ -367,7 +367,7 @@ where
             bar.finish_and_clear();
             row
         };
-        let one = shipped_schedule(S::REFINES);
+        let one = shipped_schedule(has_refine);
         let (gauss_newton, simulator_hc) = one.split_at(one.len() - 1);
         let hypotheses = solver.learned_start().hypotheses();
         // One set of hypotheses per trial: a set keeps those of the datum it was first asked

@@ -1,7 +1,7 @@
 //! A problem declared with `#[simhc_problem(simulator = custom)]` brings its own
 //! `OnlineSimulator`, and the registration uses it (`bench` and `solve` build the same
 //! pipeline from `DeclaredProblem::Tracked`), not the generic one. A problem's lists of other
-//! starts and other simulators (`DeclaredProblem::other_starts`, `other_simulators`) run after
+//! starts and other simulators (`DeclaredProblem::plan`) run after
 //! the learned start's attempts, and its restarts (`DeclaredProblem::restart`) last, around the
 //! learned start's hypothesis.
 
@@ -10,10 +10,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::PipelineError;
 use simhc::pipeline::{Method, StartError, StartProvider, StartSimulator};
-use simhc::solver::{
-    DeclaredProblem, OtherSimulator, OtherStart, Plan, Scenes, Solver, SolverAttempt, SolverError, SolverOrigin, StartId, MAX_OTHERS,
-    MAX_RESTARTS,
-};
+use simhc::solver::{DeclaredProblem, Plan, Scenes, Solver, SolverAttempt, SolverError, SolverOrigin, StartId, MAX_OTHERS, MAX_RESTARTS};
 use simhc::{MinNormSimulator, OnlineSimulator, SimulatorError};
 use simhc_cli::{App, Declared};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -176,11 +173,12 @@ struct Listed {
 impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Listed {
     like_line!();
     const NAME: &'static str = "listed";
-    fn other_starts(&self) -> Vec<OtherStart<1, 6>> {
-        (0..self.starts).map(|_| Box::new(LeastSquares) as OtherStart<1, 6>).collect()
-    }
-    fn other_simulators(&self) -> Vec<OtherSimulator<1, 3, 6, 6>> {
-        (0..self.simulators).map(|_| Box::new(Counted) as OtherSimulator<1, 3, 6, 6>).collect()
+    fn plan(&self) -> Plan<SVector<f64, 6>, 1, 3, 6> {
+        Plan {
+            other_starts: (0..self.starts).map(|_| Box::new(LeastSquares) as _).collect(),
+            other_simulators: (0..self.simulators).map(|_| Box::new(Counted) as _).collect(),
+            ..Plan::default()
+        }
     }
 }
 
@@ -267,7 +265,9 @@ struct Restarted<const R: usize>;
 impl<const R: usize> DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for Restarted<R> {
     like_line!();
     const NAME: &'static str = "restarted";
-    const RESTARTS: usize = R;
+    fn plan(&self) -> Plan<SVector<f64, 6>, 1, 3, 6> {
+        Plan { restarts: R, ..Plan::default() }
+    }
     fn restart(&self, _p: &SVector<f64, 6>, x: &SVector<f64, 1>, k: usize) -> Option<SVector<f64, 1>> {
         RESTARTED_FROM.lock().unwrap().push((k, x[0]));
         (k != 1).then(|| SVector::from([x[0] + (k + 1) as f64]))
@@ -326,16 +326,16 @@ fn restarts_start_from_the_learned_hypothesis_and_come_last() {
     }
 }
 
-/// The line whose solve settings (`DeclaredProblem::options`) allow a path one step.
+/// The line whose solve settings (the plan's options) allow a path one step.
 struct OneStep;
 
 impl DeclaredProblem<1, 3, 6, { Line3::NC }, 6> for OneStep {
     like_line!();
     const NAME: &'static str = "one-step";
-    fn options(&self) -> simhc::pipeline::PipelineOptions {
-        let mut o = simhc::pipeline::PipelineOptions::default();
-        o.tracker.max_steps = 1;
-        o
+    fn plan(&self) -> Plan<SVector<f64, 6>, 1, 3, 6> {
+        let mut plan = Plan::default();
+        plan.options.tracker.max_steps = 1;
+        plan
     }
 }
 

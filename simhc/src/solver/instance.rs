@@ -184,14 +184,7 @@ where
         S::NAME
     }
     fn plan(&self) -> Plan<SVector<f64, ND>, NX, NF, NP> {
-        Plan {
-            refine: S::REFINES,
-            restarts: S::RESTARTS,
-            other_starts: self.other_starts(),
-            other_simulators: self.other_simulators(),
-            options: self.options(),
-            ..Plan::default()
-        }
+        DeclaredProblem::plan(self)
     }
     fn shipped_weights(&self) -> Option<&'static [u8]> {
         self.weights()

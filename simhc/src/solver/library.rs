@@ -132,7 +132,7 @@ pub enum SolverOrigin {
 }
 
 /// Most other starts, and most other simulators, a problem may bring
-/// ([`super::DeclaredProblem::other_starts`], [`super::DeclaredProblem::other_simulators`]): a solve holds
+/// ([`Plan::other_starts`], [`Plan::other_simulators`]): a solve holds
 /// them in fixed arrays, without allocation.
 pub const MAX_OTHERS: usize = 8;
 

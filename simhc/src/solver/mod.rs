@@ -56,7 +56,7 @@ pub use library::{
 pub use many_rows::RowsSolution;
 pub use parts::{Canon, FirstRows, FirstRowsError, GivenStart, RandomStart};
 pub use plan::Plan;
-pub use problem::{CanonicalFrame, DeclaredProblem, DeclaredSizes, DegenerateInput, OtherSimulator, OtherStart, Refinement};
+pub use problem::{CanonicalFrame, DeclaredProblem, DeclaredSizes, DegenerateInput, Refinement};
 pub use residual::row_residual;
 pub use restarts::{restart_rotation, rotated_restart, MAX_RESTARTS, RESTART_AXES};
 pub use rows::{ProblemOutputs, ProblemRows};

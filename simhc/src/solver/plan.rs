@@ -1,6 +1,5 @@
 //! What a solver tries, apart from what only the problem knows: a value, built once. A problem
-//! gives its default ([`super::InstanceProblem::plan`]; a declared problem's comes from its
-//! `REFINES`, `RESTARTS`, `options`, `other_starts` and `other_simulators`), and a caller may
+//! gives its default ([`super::InstanceProblem::plan`], [`super::DeclaredProblem::plan`]), and a caller may
 //! change it before the solver is built ([`super::InstanceSolver::with_plan`]), as PoseLib's
 //! option structs and HomotopyContinuation.jl's keywords sit apart from the system solved.
 
@@ -23,11 +22,17 @@ pub struct Plan<D: ?Sized, const NX: usize, const NF: usize, const NP: usize> {
     /// Restarts from rotated learned hypotheses, after the other attempts (at most
     /// [`super::MAX_RESTARTS`]).
     pub restarts: usize,
-    /// Starts other than the learned one (closed-form, linear), each tracked like a learned
-    /// hypothesis.
+    /// Starts other than the learned one (closed-form, linear, the swapped views: a start that
+    /// holds where the learned one was not trained), tried after every learned hypothesis and
+    /// before the all-roots fallback: each with Gauss-Newton on the tracked rows, then one path
+    /// with the problem's simulator, then one with each other simulator. A provider sees the
+    /// data, and returns unknowns, in the canonical frame when the problem makes one. At most
+    /// [`super::MAX_OTHERS`].
     pub other_starts: Vec<SharedStart<D, NX>>,
-    /// Simulators other than the problem's own, each building start parameters for the
-    /// learned hypotheses.
+    /// Online simulators beside the problem's own (a geometric one that re-projects the
+    /// scene): after the paths of the learned hypotheses with the own simulator, one path from
+    /// each hypothesis with each of these ([`crate::pipeline::Method::OtherSimulatorHc`]`(k)`
+    /// for the `k`-th), in the canonical frame as the starts. At most [`super::MAX_OTHERS`].
     pub other_simulators: Vec<SharedSimulator<D, NX, NF, NP>>,
     /// Try the other starts before the learned one: for a start that is cheaper and exact on
     /// noise-free data (UPnP's linear start).
@@ -35,7 +40,10 @@ pub struct Plan<D: ?Sized, const NX: usize, const NF: usize, const NP: usize> {
     /// End with the all-roots fallback when nothing validated, if the solver has one (the
     /// problem's start system or one given at run time).
     pub fallback: bool,
-    /// Tracker, Newton and schedule options.
+    /// The tracker of every path, Gauss-Newton, the polish of end points short of the
+    /// tracker's tolerance, and how many more attempts run after a plausible end point
+    /// ([`crate::pipeline::Verdict::Plausible`], the best then returned). The solver sets the
+    /// options' own `fallback` (on for a solve, off on a RANSAC sample).
     pub options: PipelineOptions,
 }
 

@@ -4,8 +4,9 @@
 //! [`super::Solver`] assembles a solve from it; what only the `simhc-cli` commands need (a
 //! scene sampler, the errors a bench reports, training settings) is [`super::Scenes`].
 
+use super::plan::Plan;
 use super::subsystem::AllRoots;
-use crate::pipeline::{InputRows, OutputDecoding, PipelineOptions, StartProvider, StartSimulator, Validator};
+use crate::pipeline::{InputRows, OutputDecoding, Validator};
 use crate::{CoefficientForm, InstanceSizes, OnlineSimulator, ParamDerivative, ProblemLayout};
 use nalgebra::SVector;
 use smallbox::{smallbox, space, SmallBox};
@@ -44,12 +45,6 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     type Validator: Validator<SVector<f64, ND>, NX>;
     /// The name on the command line (lower case); errors of a solve name the problem by it.
     const NAME: &'static str;
-    /// Whether [`DeclaredProblem::refine`] is implemented: the shipped schedule then starts
-    /// with Gauss-Newton on all rows, and bench adds that row.
-    const REFINES: bool = false;
-    /// How many restarts [`DeclaredProblem::restart`] makes (at most [`super::MAX_RESTARTS`]:
-    /// more is a [`super::SolverError::TooMany`]). Default: none.
-    const RESTARTS: usize = 0;
     /// Models a RANSAC sample may give ([`super::Solver::estimate`]): at most this many distinct
     /// end points ([`DeclaredProblem::same_solution`]) that validate on the sample. Default `1`:
     /// the first. More helps a minimal sample, whose every real root fits it exactly: the
@@ -76,7 +71,7 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// With validation rows this is far more selective than Gauss-Newton on the tracked
     /// rows: an extra row removes the basins of the other roots.
     /// [`Refinement::Unsupported`] (the default): the Gauss-Newton attempts run on the tracked
-    /// rows. Set [`DeclaredProblem::REFINES`] when you implement it.
+    /// rows. Set [`Plan::refine`] in [`DeclaredProblem::plan`] when you implement it.
     fn refine(&self, _p: &SVector<f64, ND>, _x0: &SVector<f64, NX>) -> Refinement<NX> {
         Refinement::Unsupported
     }
@@ -106,43 +101,24 @@ pub trait DeclaredProblem<const NX: usize, const NF: usize, const NP: usize, con
     fn outputs(&self) -> Option<&dyn OutputDecoding> {
         None
     }
-    /// Settings of a solve's attempts: the tracker of every path, Gauss-Newton, the polish of
-    /// end points short of the tracker's tolerance, and how many more attempts run after a
-    /// plausible end point ([`crate::pipeline::Verdict::Plausible`], the best then returned).
-    /// The solver sets `fallback` itself (on for [`super::Solver::solve`], off on a RANSAC
-    /// sample). Called once, when a [`super::Solver`] is built. Default:
-    /// [`PipelineOptions::default`].
-    fn options(&self) -> PipelineOptions {
-        PipelineOptions::default()
+    /// What a solver of the problem tries by default ([`Plan`]): refinement of the learned
+    /// hypotheses ([`DeclaredProblem::refine`]), restarts ([`DeclaredProblem::restart`]),
+    /// other starts and simulators, and the options of the tracker, Gauss-Newton and the
+    /// schedule. Write the return type as plain `Plan`: `#[declared_problem]` gives it the
+    /// problem's sizes. Called once, when a [`super::Solver`] is built; a caller may change it
+    /// ([`super::InstanceSolver::with_plan`]). Default: the learned start alone, then the
+    /// all-roots fallback.
+    fn plan(&self) -> Plan<SVector<f64, ND>, NX, NF, NP> {
+        Plan::default()
     }
     /// The shipped weights (for example `include_bytes!`), used when no `--weights` is given.
     fn weights(&self) -> Option<&'static [u8]> {
         None
     }
-    /// More start providers, tried after every hypothesis of the learned start (before the
-    /// all-roots fallback): each with Gauss-Newton on the tracked rows, then one path with the
-    /// tracked instance's simulator, then one with each of [`DeclaredProblem::other_simulators`].
-    /// A closed-form or geometric start (a linear relaxation, the swapped views) that holds
-    /// where the learned start was not trained belongs here. A provider sees the data, and
-    /// returns unknowns, in the canonical frame when [`DeclaredProblem::canonicalize`] makes
-    /// one. Called once, when a [`super::Solver`] is built; at most [`super::MAX_OTHERS`].
-    /// Default: none.
-    fn other_starts(&self) -> Vec<OtherStart<NX, ND>> {
-        Vec::new()
-    }
-    /// More online simulators beside the tracked instance's own [`OnlineSimulator`] (for
-    /// example a geometric one that re-projects the scene): after the paths of the learned
-    /// hypotheses with the own simulator, one path from each hypothesis with each of these
-    /// ([`crate::pipeline::Method::OtherSimulatorHc`]`(k)` for the `k`-th). They see the data in
-    /// the canonical frame, as the starts do. Called once, when a [`super::Solver`] is built;
-    /// at most [`super::MAX_OTHERS`]. Default: none.
-    fn other_simulators(&self) -> Vec<OtherSimulator<NX, NF, NP, ND>> {
-        Vec::new()
-    }
     /// Restart `k` around `x`, the learned start's first-ranked hypothesis for the data `p`
     /// (both in the canonical frame, if [`DeclaredProblem::canonicalize`] makes one): a start
     /// for Gauss-Newton on the tracked rows, tried after every other attempt and before the
-    /// all-roots fallback, for `k` in `0..RESTARTS` ([`super::restarts`]). For a layout with a
+    /// all-roots fallback, for `k` in `0..plan().restarts` ([`super::restarts`]). For a layout with a
     /// rotation, [`super::rotated_restart`] turns the prediction about fixed axes; a problem
     /// can then re-solve the unknowns that follow from the rotation (GRPS: the least-squares
     /// translation and scale). `None` (the default): no restart `k`.
@@ -187,13 +163,6 @@ pub trait DeclaredSizes {
     /// wherever a type that is no instance is given as one.
     const SIZES: [usize; 5];
 }
-
-/// A start provider of [`DeclaredProblem::other_starts`]: shared by the threads of a solver.
-pub type OtherStart<const NX: usize, const ND: usize> = Box<dyn StartProvider<SVector<f64, ND>, NX> + Send + Sync>;
-
-/// A simulator of [`DeclaredProblem::other_simulators`]: shared by the threads of a solver.
-pub type OtherSimulator<const NX: usize, const NF: usize, const NP: usize, const ND: usize> =
-    Box<dyn StartSimulator<SVector<f64, ND>, NX, NF, NP> + Send + Sync>;
 
 /// A map of the unknowns from one frame to another, held inline: a closure whose captures fit
 /// in 32 words (256 bytes on 64-bit targets: two rotations, two offsets and two scales, say)

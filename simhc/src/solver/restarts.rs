@@ -17,7 +17,7 @@ use crate::metrics::{quat_from_rotation, rotation_from_quat};
 use crate::pipeline::{StartError, StartProvider};
 use nalgebra::{Rotation3, SVector, Unit, Vector3};
 
-/// Most restarts a problem may ask for ([`super::DeclaredProblem::RESTARTS`]): a solve holds their
+/// Most restarts a problem may ask for ([`super::Plan::restarts`]): a solve holds their
 /// providers in a fixed array, without allocation.
 pub const MAX_RESTARTS: usize = 96;
 

@@ -66,7 +66,7 @@ impl SolverAttempt {
 }
 
 /// The attempts of a shipped solve, over the first-ranked learned hypothesis, predicted and
-/// refined on all rows: with a refine hook ([`super::DeclaredProblem::REFINES`]), its
+/// refined on all rows: with a refine hook ([`super::Plan::refine`]), its
 /// least-squares point on all rows as it is, then Gauss-Newton on the tracked rows from it
 /// (with noise the first validates more often: the tracked rows' exact root carries their
 /// noise to the other rows); without one, Gauss-Newton on the tracked rows from the learned

@@ -1,8 +1,9 @@
 // `#[simhc::declared_problem]` takes the sizes from `type Tracked` and `type Data`, and sizes a
 // `Scenes` impl of the same type alike; every mistake of a block is reported at once, at the
-// user's tokens: sizes written as well, a missing `type Data`, a type that is no compiled
-// instance, a `Scenes` signature written with another instance's parameter vector, and a
-// `Scenes` impl of a type whose `DeclaredProblem` impl is not under the attribute.
+// user's tokens: sizes written as well (on the trait and on `fn plan`'s `Plan`), a missing
+// `type Data`, a type that is no compiled instance, a `Scenes` signature written with another
+// instance's parameter vector, and a `Scenes` impl of a type whose `DeclaredProblem` impl is not
+// under the attribute.
 use rand_chacha::ChaCha8Rng;
 use simhc::pipeline::{Validator, Verdict};
 use simhc::solver::{DeclaredProblem, Scenes};
@@ -43,6 +44,9 @@ impl DeclaredProblem<1, 2, 4, 4, 6> for Line {
     type Tracked = line::Line2;
     type Validator = Exact;
     const NAME: &'static str = "line";
+    fn plan(&self) -> simhc::solver::Plan<line::Params3, 1, 2, 4> {
+        simhc::solver::Plan::default()
+    }
 }
 
 struct Other;

@@ -153,13 +153,13 @@ impl InstanceProblem<4, 5, 66, 35, [UpnpCorrespondence]> for UpnpProblem {
     fn name(&self) -> &'static str {
         "upnp"
     }
-    fn shipped_weights(&self) -> Option<&'static [u8]> {
+    fn weights(&self) -> Option<&'static [u8]> {
         Some(UPNP_WEIGHTS)
     }
     fn learned(_problem: &Arc<Self>, weights: &[u8]) -> Result<UpnpLearned, RegressorError> {
         UpnpLearned::new(FoldedNetwork::from_bytes(weights)?)
     }
-    fn make_validator(&self, noise: f64) -> UpnpPoseValidator {
+    fn validator(&self, noise: f64) -> UpnpPoseValidator {
         UpnpPoseValidator { max_angle: self.max_angle.max(8.0 * noise), max_behind: self.max_behind }
     }
     fn plan(&self) -> Plan<[UpnpCorrespondence], 4, 5, 66> {
@@ -200,7 +200,7 @@ impl InstanceProblem<4, 5, 66, 35, [UpnpCorrespondence]> for UpnpProblem {
         let m = reprojected_cost(&pose.rotation, &pose.translation, corrs).map_err(|_| SimulatorError::Singular)?;
         Ok(params_of(&m))
     }
-    fn refine_start(&self, _corrs: &[UpnpCorrespondence], _x0: &SVector<f64, 4>) -> Refinement<4> {
+    fn refine(&self, _corrs: &[UpnpCorrespondence], _x0: &SVector<f64, 4>) -> Refinement<4> {
         Refinement::Unsupported
     }
     fn has_fallback(&self) -> bool {

@@ -9,8 +9,10 @@
 //! (`D = [UpnpCorrespondence]`) and tracks the 66 entries of its cost matrix, which no rows of
 //! the data are.
 //!
-//! The items are named apart from [`DeclaredProblem`]'s, so that a type implementing both
-//! never has an ambiguous `NAME` or `validator`.
+//! Where an item means what a [`DeclaredProblem`] item means, it has its name (`plan`,
+//! `validator`, `weights`, `canonicalize`, `refine`, `restart`), and the blanket impl forwards
+//! each. Code with both traits in scope names the trait of a declared problem's call:
+//! `DeclaredProblem::validator(&problem, noise)`.
 
 use super::hypotheses::{LearnedHypotheses, Ranked, RankedStarts};
 use super::parts::{Canon, FirstRows, FirstRowsError};
@@ -30,8 +32,8 @@ use std::sync::Arc;
 /// A problem a [`super::Solver`] solves, for data of type `D` (the [module docs](self)).
 ///
 /// `NX, NF, NP, NC` are the sizes of the tracked system. [`InstanceProblem::check_data`] and
-/// [`InstanceProblem::canonical`] see the user's data; the other methods see it as the
-/// pipeline does, in the canonical frame when [`InstanceProblem::canonical`] makes one (the
+/// [`InstanceProblem::canonicalize`] see the user's data; the other methods see it as the
+/// pipeline does, in the canonical frame when [`InstanceProblem::canonicalize`] makes one (the
 /// validator also checks the final solution on the user's data).
 #[diagnostic::on_unimplemented(
     message = "`{Self}` is not a problem a solver takes for data `{D}` with these sizes",
@@ -57,7 +59,7 @@ pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, con
         Plan::default()
     }
     /// The weights the problem ships, if any.
-    fn shipped_weights(&self) -> Option<&'static [u8]> {
+    fn weights(&self) -> Option<&'static [u8]> {
         None
     }
     /// The learned start of `weights` (a file made by `train`); an error when they were made
@@ -66,7 +68,7 @@ pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, con
     where
         Self: Sized;
     /// The validator of solutions, for data with noise of size `noise`.
-    fn make_validator(&self, noise: f64) -> Self::Validator;
+    fn validator(&self, noise: f64) -> Self::Validator;
     /// Checks the user's data before anything else: which correspondence and field is not
     /// finite, too few correspondences, degenerate geometry.
     fn check_data(&self, data: &D) -> Result<(), FirstRowsError>;
@@ -76,15 +78,15 @@ pub trait InstanceProblem<const NX: usize, const NF: usize, const NP: usize, con
     /// online simulator).
     fn simulate_start(&self, data: &D, x0: &SVector<f64, NX>, p: &SVector<f64, NP>) -> Result<SVector<f64, NP>, SimulatorError>;
     /// The data in a canonical frame and the maps of the unknowns; `None`: solved as given.
-    fn canonical(&self, _data: &D) -> Option<(Self::Canonical, CanonicalFrame<NX>)> {
+    fn canonicalize(&self, _data: &D) -> Option<(Self::Canonical, CanonicalFrame<NX>)> {
         None
     }
     /// The learned start refined on all the data (tried when [`Plan::refine`]).
-    fn refine_start(&self, _data: &D, _x0: &SVector<f64, NX>) -> Refinement<NX> {
+    fn refine(&self, _data: &D, _x0: &SVector<f64, NX>) -> Refinement<NX> {
         Refinement::Unsupported
     }
     /// Restart `k` around `x`, the first-ranked learned hypothesis (for `k <` [`Plan::restarts`]).
-    fn restart_start(&self, _data: &D, _x: &SVector<f64, NX>, _k: usize) -> Option<SVector<f64, NX>> {
+    fn restart(&self, _data: &D, _x: &SVector<f64, NX>, _k: usize) -> Option<SVector<f64, NX>> {
         None
     }
     /// Whether [`InstanceProblem::fallback_candidates`] can return candidates.
@@ -186,14 +188,14 @@ where
     fn plan(&self) -> Plan<SVector<f64, ND>, NX, NF, NP> {
         DeclaredProblem::plan(self)
     }
-    fn shipped_weights(&self) -> Option<&'static [u8]> {
-        self.weights()
+    fn weights(&self) -> Option<&'static [u8]> {
+        DeclaredProblem::weights(self)
     }
     fn learned(problem: &Arc<Self>, weights: &[u8]) -> Result<Self::Learned, RegressorError> {
         RowwiseLearned::new(problem, FoldedNetwork::from_bytes(weights)?)
     }
-    fn make_validator(&self, noise: f64) -> S::Validator {
-        self.validator(noise)
+    fn validator(&self, noise: f64) -> S::Validator {
+        DeclaredProblem::validator(self, noise)
     }
     fn check_data(&self, p: &SVector<f64, ND>) -> Result<(), FirstRowsError> {
         if let Some(index) = p.iter().position(|v| !v.is_finite()) {
@@ -213,14 +215,14 @@ where
     ) -> Result<SVector<f64, NP>, SimulatorError> {
         Generic(S::Tracked::default()).simulate(p, x0, target)
     }
-    fn canonical(&self, p: &SVector<f64, ND>) -> Option<(SVector<f64, ND>, CanonicalFrame<NX>)> {
+    fn canonicalize(&self, p: &SVector<f64, ND>) -> Option<(SVector<f64, ND>, CanonicalFrame<NX>)> {
         Canon(self).canonicalize(p).map(|(frame, p)| (p, frame))
     }
-    fn refine_start(&self, p: &SVector<f64, ND>, x0: &SVector<f64, NX>) -> Refinement<NX> {
-        self.refine(p, x0)
+    fn refine(&self, p: &SVector<f64, ND>, x0: &SVector<f64, NX>) -> Refinement<NX> {
+        DeclaredProblem::refine(self, p, x0)
     }
-    fn restart_start(&self, p: &SVector<f64, ND>, x: &SVector<f64, NX>, k: usize) -> Option<SVector<f64, NX>> {
-        self.restart(p, x, k)
+    fn restart(&self, p: &SVector<f64, ND>, x: &SVector<f64, NX>, k: usize) -> Option<SVector<f64, NX>> {
+        DeclaredProblem::restart(self, p, x, k)
     }
     fn has_fallback(&self) -> bool {
         self.all_roots().is_some_and(|r| r.has_start_system())
@@ -278,7 +280,7 @@ where
     }
 }
 
-/// The problem's canonical frame ([`InstanceProblem::canonical`]).
+/// The problem's canonical frame ([`InstanceProblem::canonicalize`]).
 pub struct OwnCanon<'a, S, const NF: usize, const NP: usize, const NC: usize>(pub &'a S);
 
 impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, D: ?Sized> Canonicalize<D, NX> for OwnCanon<'_, S, NF, NP, NC>
@@ -288,7 +290,7 @@ where
     type Frame = CanonicalFrame<NX>;
     type Canonical = S::Canonical;
     fn canonicalize(&self, data: &D) -> Option<(CanonicalFrame<NX>, S::Canonical)> {
-        self.0.canonical(data).map(|(d, frame)| (frame, d))
+        self.0.canonicalize(data).map(|(d, frame)| (frame, d))
     }
     fn to_user(&self, frame: &CanonicalFrame<NX>, x: &SVector<f64, NX>) -> SVector<f64, NX> {
         frame.to_user(x)
@@ -307,7 +309,7 @@ where
     }
 }
 
-/// The learned start refined on all the data ([`InstanceProblem::refine_start`]); an error
+/// The learned start refined on all the data ([`InstanceProblem::refine`]); an error
 /// when that fails.
 pub struct RefinedStart<'h, 'a, S, L, const NX: usize, const NF: usize, const NP: usize, const NC: usize> {
     /// The solve's hypotheses.
@@ -330,7 +332,7 @@ where
     fn start(&self, data: &D) -> Result<SVector<f64, NX>, StartError> {
         let x0 = self.set.start(data, self.rank)?;
         let fail = |reason: &'static str| StartError { provider: "refined", reason: reason.into() };
-        match self.problem.refine_start(data, &x0) {
+        match self.problem.refine(data, &x0) {
             Refinement::Converged(x) => Ok(x),
             Refinement::Failed => Err(fail("Gauss-Newton on all rows did not converge")),
             Refinement::Unsupported => Err(fail("the problem has no refinement on all rows")),

@@ -216,7 +216,7 @@ where
 {
     /// The solver of `problem` with its shipped weights, for noise-free data.
     pub fn new(problem: S) -> Result<Self, SolverError> {
-        let weights = problem.shipped_weights().ok_or(SolverError::NoWeights(problem.name()))?;
+        let weights = problem.weights().ok_or(SolverError::NoWeights(problem.name()))?;
         Self::with_weights(problem, weights, 0.0)
     }
 
@@ -235,7 +235,7 @@ where
     /// The solver of `problem` with a learned start already built (one network shared by
     /// several solvers, or a start that is not a network).
     pub fn with_learned(problem: Arc<S>, learned: S::Learned, noise: f64) -> Result<Self, SolverError> {
-        let validator = problem.make_validator(noise);
+        let validator = problem.validator(noise);
         let plan = problem.plan();
         Self::assemble(problem, learned, validator, plan)
     }

@@ -16,7 +16,7 @@ pub type SharedSimulator<D, const NX: usize, const NF: usize, const NP: usize> =
 /// comes first (its weights are given to the solver); then, in the shipped schedule's order,
 /// the other starts and simulators, the restarts, and the all-roots fallback.
 pub struct Plan<D: ?Sized, const NX: usize, const NF: usize, const NP: usize> {
-    /// Refine each learned hypothesis on the data (the problem's `refine_start`) before it
+    /// Refine each learned hypothesis on the data (the problem's `refine`) before it
     /// is tracked: Gauss-Newton on the data, then the path from the refined start.
     pub refine: bool,
     /// Restarts from rotated learned hypotheses, after the other attempts (at most

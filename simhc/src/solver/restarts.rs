@@ -89,7 +89,7 @@ where
     }
     fn start(&self, data: &D) -> Result<SVector<f64, NX>, StartError> {
         let x = self.set.start(data, 0)?;
-        self.problem.restart_start(data, &x, self.k).ok_or_else(|| StartError {
+        self.problem.restart(data, &x, self.k).ok_or_else(|| StartError {
             provider: "restart",
             reason: format!("the problem has no restart {} around this start", self.k).into(),
         })

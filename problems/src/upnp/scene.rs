@@ -64,8 +64,9 @@ impl UpnpCorrespondence {
     /// The numbers of one correspondence as a row: `p`, `f`, `v`.
     pub const ROW_LEN: usize = 9;
 
-    /// The correspondence of a row `[p, f, v]` ([`Self::ROW_LEN`] numbers; longer rows are
-    /// read from their start). What the rows of the CLI's trials files and of Python hold.
+    /// The correspondence of a row `[p, f, v]`: the first [`Self::ROW_LEN`] numbers of `row`,
+    /// which must have that many (the callers check every row's length first: the CLI's
+    /// trials reader names the row, Python the field). What those rows hold.
     pub fn from_row(row: &[f64]) -> Self {
         let v = |k: usize| Vector3::new(row[k], row[k + 1], row[k + 2]);
         Self { p: v(0), f: v(3), v: v(6) }

@@ -422,8 +422,8 @@ where
 type SceneSampler<'a> = dyn FnMut(&mut ChaCha8Rng) -> (Vec<f64>, Vec<f64>) + 'a;
 
 /// The network and the run of [`train_learned_start_with`]. Not generic, so that burn's
-/// training loop is compiled once, here, and not again in every problem's binary: it was an
-/// eighth of the LLVM IR of the example's `grp` (`cargo llvm-lines`, 2026-12-05).
+/// training loop is compiled once, here, and not again in every problem's binary: it was a
+/// fifth of the LLVM IR of the example's `grp` (`cargo llvm-lines`, 2026-12-05).
 fn train_network(
     layout: &Layout,
     rows: &dyn InputRows,

@@ -137,8 +137,6 @@ impl<S, const NX: usize, const NF: usize, const NP: usize, const NC: usize, cons
 where
     S: DeclaredProblem<NX, NF, NP, NC, ND>,
     Self: Send + Sync,
-    // A batch's results cross threads.
-    Check<S::Validator, NX, ND>: Send,
 {
     fn name(&self) -> &'static str {
         S::NAME
@@ -171,25 +169,6 @@ where
         Solver::solve(self, &p)
             .map(|s| (s.x.as_slice().to_vec(), s.certified.and_then(|c| c.ok()).map(|c| c.error_bound())))
             .map_err(solve_failure)
-    }
-    fn solve_batch(&self, n: usize, rows: &[f64], globals: &[f64]) -> Vec<Result<Vec<f64>, Failure>> {
-        let (per, g) = (n * S::Data::LAYOUT.per_row, S::Data::LAYOUT.globals_len());
-        let count = rows.len().checked_div(per).unwrap_or(0);
-        if n != S::Data::LAYOUT.rows || globals.len() != count * g {
-            return vec![
-                Err(Failure::Input(format!(
-                    "{n} rows and {} global numbers per instance: `{}` takes {} rows and {g}",
-                    globals.len() / count.max(1),
-                    S::NAME,
-                    S::Data::LAYOUT.rows
-                )));
-                count
-            ];
-        }
-        let data: Vec<SVector<f64, ND>> = (0..count)
-            .map(|i| SVector::from_iterator(rows[i * per..(i + 1) * per].iter().chain(&globals[i * g..(i + 1) * g]).copied()))
-            .collect();
-        Solver::solve_batch(self, &data).into_iter().map(|r| r.map(|s| s.x.as_slice().to_vec()).map_err(solve_failure)).collect()
     }
     fn estimate(&self, rows: &[f64], globals: &[f64], options: &RansacOptions) -> Result<(Vec<f64>, EstimateInfo), Failure> {
         Solver::estimate(self, (rows, globals), options).map(|(x, info)| (x.as_slice().to_vec(), info)).map_err(estimate_failure)
